@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The one list of what flatscan needs on a fresh Debian 12 machine. Every entry point
+# (README commands, .ci/run) calls this script; nothing else installs packages.
+set -euo pipefail
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libopencv-dev libopencv-contrib-dev opencv-doc   # calib3d, imgproc, FileStorage; opencv-doc has the stereo sample images
+  libeigen3-dev libnanoflann-dev libtbb-dev
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  echo "install-deps: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,31 @@
+#pragma once
+// A calibrated stereo pair. Camera 1 (left) is the reference frame; camera 2 sees
+// X2 = R X1 + T (cam2_from_cam1, mm), exactly as cv::stereoCalibrate reports it.
+// The rectification (R1, R2, P1, P2, Q) is cv::stereoRectify with flags = 0
+// (CALIB_ZERO_DISPARITY leaves a tiny valid region on a convergent rig) and alpha = -1.
+#include <opencv2/core.hpp>
+
+#include "flatscan/geometry/camera.h"
+#include "flatscan/geometry/rigid3.h"
+
+namespace flatscan {
+
+struct Rectification {
+  cv::Mat R1, R2;  // 3x3: rectified_cam_k_from_cam_k
+  cv::Mat P1, P2;  // 3x4 projection matrices in the rectified frames
+  cv::Mat Q;       // 4x4 disparity-to-depth map
+  bool empty() const { return R1.empty(); }
+};
+
+struct StereoRig {
+  Camera left;
+  Camera right;
+  Rigid3d cam2_from_cam1;
+  Rectification rectification;
+
+  // Fills `rectification` from the cameras and the relative pose.
+  void ComputeRectification();
+  double BaselineMm() const { return cam2_from_cam1.translation.norm(); }
+};
+
+}  // namespace flatscan

@@ -1,0 +1,43 @@
+#pragma once
+// The three flatness quantities of DESIGN section 3, over the bottom rim points of a
+// part, all in mm.
+//   flatness_mm : max over points of the height above the support plane (the
+//                 paper's quantity; seating-plane height, JEDEC JESD22-B108).
+//   lsq_pv_mm   : peak-to-valley of the points about their least-squares plane
+//                 (total least squares: the plane minimizing squared orthogonal
+//                 distances).
+//   minzone_mm  : ISO 1101 flatness: the smallest distance between two parallel planes
+//                 enclosing all points (exact, by linear programming, refined until
+//                 the plane's tilt no longer changes the width by more than 1e-12 mm).
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace flatscan {
+
+struct PlaneFit {
+  Eigen::Vector3d normal;    // unit
+  Eigen::Vector3d centroid;  // a point on the plane
+};
+
+// Total-least-squares plane (smallest singular vector of the centred points).
+PlaneFit FitPlaneTotalLeastSquares(const std::vector<Eigen::Vector3d>& points);
+
+// Peak-to-valley of the orthogonal distances about the TLS plane.
+double LeastSquaresPeakToValley(const std::vector<Eigen::Vector3d>& points);
+
+// Minimum-zone flatness; optionally returns the normal of the two enclosing planes.
+double MinimumZoneFlatness(const std::vector<Eigen::Vector3d>& points,
+                           Eigen::Vector3d* zone_normal = nullptr);
+
+struct FlatnessValues {
+  double flatness_mm = 0.0;
+  double lsq_pv_mm = 0.0;
+  double minzone_mm = 0.0;
+};
+
+// heights[i] is points[i]'s height above the support plane (for flatness_mm).
+FlatnessValues ComputeFlatness(const std::vector<Eigen::Vector3d>& points,
+                               const std::vector<double>& heights);
+
+}  // namespace flatscan
