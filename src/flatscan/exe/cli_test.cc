@@ -1,0 +1,115 @@
+// End-to-end tests of the flatscan binary: exit codes, messages, and outputs.
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "flatscan/util/test_util.h"
+
+namespace flatscan {
+namespace {
+
+using testing::RunFlatscan;
+using testing::ScratchDir;
+
+// A reduced-resolution scene (same optics geometry as the paper rig) so that
+// end-to-end runs take well under a second.
+std::filesystem::path WriteSmallScene(const std::filesystem::path& dir, const std::string& extra = "") {
+  const auto path = dir / "small.yml";
+  std::ofstream(path) << "camera:\n  width: 960\n  height: 720\n  pixel_size_um: 6.0\n"
+                         "board:\n  poses: 2\n"
+                         "dataset:\n  parts: 2\n"
+                      << extra;
+  return path;
+}
+
+bool NothingNamedLike(const std::filesystem::path& dir, const std::string& stem) {
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (entry.path().filename().string().rfind(stem, 0) == 0) return false;
+  return true;
+}
+
+TEST(Cli, EverySubcommandHasHelp) {
+  for (const std::string sub : {"", "simulate", "demo"}) {
+    const auto r = RunFlatscan(sub + " --help");
+    EXPECT_EQ(r.exit_code, 0) << sub;
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << sub;
+  }
+  EXPECT_EQ(RunFlatscan("").exit_code, 2);
+  EXPECT_EQ(RunFlatscan("no-such-command").exit_code, 2);
+}
+
+TEST(Cli, SimulateIsDeterministicForASeed) {
+  ScratchDir dir("cli-determinism");
+  const auto scene = WriteSmallScene(dir.path());
+  for (const std::string out : {"a", "b", "c"}) {
+    const std::string seed = out == "c" ? "6" : "5";
+    const auto r = RunFlatscan("simulate --scene " + scene.string() + " --seed " + seed + " -q -o " + (dir.path() / out).string());
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  int compared = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir.path() / "a")) {
+    if (!entry.is_regular_file()) continue;
+    const auto rel = std::filesystem::relative(entry.path(), dir.path() / "a");
+    EXPECT_EQ(testing::ReadFileBytes(entry.path()), testing::ReadFileBytes(dir.path() / "b" / rel)) << rel;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 2 * 2 + 1 + 2 + 2 * 2 + 5);  // calib pairs + board.json, markers, parts, rig/plane/scene/pairs/truth
+  EXPECT_NE(testing::ReadFileBytes(dir.path() / "a/parts/part_000_left.png"),
+            testing::ReadFileBytes(dir.path() / "c/parts/part_000_left.png"));
+  const auto truth = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "a/truth.json"));
+  ASSERT_EQ(truth["parts"].size(), 2u);
+  for (const auto& part : truth["parts"]) {
+    EXPECT_GE(part["flatness_mm"].get<double>(), part["minzone_mm"].get<double>() - 1e-9);
+    EXPECT_GT(part["rim_cam1_mm"].size(), 100u);
+  }
+}
+
+TEST(Cli, RepeatedShotsShareThePartAndItsTruth) {
+  ScratchDir dir("cli-shots");
+  const auto scene = WriteSmallScene(dir.path());
+  const auto r = RunFlatscan("simulate --scene " + scene.string() + " --parts 1 --shots 3 --no-calibration --no-markers -q -o " +
+                             (dir.path() / "out").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto truth = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "out/truth.json"));
+  ASSERT_EQ(truth["parts"][0]["shots"].size(), 3u);
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "out/parts/part_000_shot_02_right.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "out/calib"));
+  const std::string pairs = testing::ReadFileBytes(dir.path() / "out/pairs.csv");
+  EXPECT_EQ(pairs.substr(0, 14), "id,left,right\n");
+  EXPECT_NE(pairs.find("part_000_shot_01,parts/part_000_shot_01_left.png,parts/part_000_shot_01_right.png"), std::string::npos);
+}
+
+TEST(Cli, BadSimulateInputExitsTwoWithoutOutput) {
+  ScratchDir dir("cli-bad");
+  const std::string out = (dir.path() / "out").string();
+  auto r = RunFlatscan("simulate --preset nope -o " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("unknown preset 'nope' (expected one of: paper, compact)"), std::string::npos) << r.err;
+
+  const auto negative = WriteSmallScene(dir.path(), "optics:\n  noise_sigma_grey: -2\n");
+  r = RunFlatscan("simulate --scene " + negative.string() + " -o " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("small.yml: optics.noise_sigma_grey must be >= 0, got -2"), std::string::npos) << r.err;
+
+  const auto missing = WriteSmallScene(dir.path(), "optics:\n  blur_sigma_px:\n");
+  r = RunFlatscan("simulate --scene " + missing.string() + " -o " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("small.yml: optics.blur_sigma_px has no value (expected a number in [0, 10])"), std::string::npos) << r.err;
+
+  const auto huge = WriteSmallScene(dir.path(), "part:\n  width_mm: 80\n  height_mm: 10\n");
+  r = RunFlatscan("simulate --scene " + huge.string() + " -o " + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("part: a 80.00 x 10.00 mm part does not fit in the common field of view"), std::string::npos) << r.err;
+
+  std::ofstream(dir.path() / "file") << "x";
+  const auto small = WriteSmallScene(dir.path());
+  r = RunFlatscan("simulate --scene " + small.string() + " -o " + (dir.path() / "file" / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("cannot create folder '" + (dir.path() / "file" / "out").string() + "'"), std::string::npos) << r.err;
+
+  EXPECT_TRUE(NothingNamedLike(dir.path(), "out"));
+}
+
+}  // namespace
+}  // namespace flatscan

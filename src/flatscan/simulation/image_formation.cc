@@ -1,0 +1,105 @@
+#include "flatscan/simulation/image_formation.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
+
+#include "flatscan/util/random.h"
+
+namespace flatscan {
+namespace {
+
+// Standard normal quantiles at the midpoints of 65536 equal-probability bins, so one
+// 64-bit random word gives four normal deviates (variance 0.9997 of the continuous
+// law: the bins truncate the tails at 4.3 sigma, far beyond what 8-bit images show).
+const std::array<float, 65536>& NormalQuantiles() {
+  static const std::array<float, 65536> table = [] {
+    std::array<float, 65536> t{};
+    for (int i = 0; i < 65536; ++i) {
+      const double p = (i + 0.5) / 65536.0;
+      double x = 0.0;  // Newton on Phi(x) = p
+      for (int iter = 0; iter < 100; ++iter) {
+        const double phi = 0.5 * std::erfc(-x / std::sqrt(2.0));
+        const double pdf = std::exp(-0.5 * x * x) / std::sqrt(2.0 * M_PI);
+        const double step = (phi - p) / pdf;
+        x -= std::clamp(step, -1.0, 1.0);
+        if (std::abs(step) < 1e-13) break;
+      }
+      t[i] = static_cast<float>(x);
+    }
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace
+
+cv::Mat1f BacklightImage(int width, int height, double grey, double vignetting) {
+  cv::Mat1f image(height, width);
+  const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
+  const double inv_r2 = 1.0 / (cx * cx + cy * cy);
+  tbb::parallel_for(0, height, [&](int v) {
+    float* row = image.ptr<float>(v);
+    const double dy2 = (v - cy) * (v - cy);
+    for (int u = 0; u < width; ++u) {
+      const double r2 = ((u - cx) * (u - cx) + dy2) * inv_r2;
+      row[u] = static_cast<float>(grey * (1.0 - vignetting * r2));
+    }
+  });
+  return image;
+}
+
+void BlendCoverage(cv::Mat1f& image, const CoverageTile& tile, double grey) {
+  if (tile.roi.empty()) return;
+  for (int y = 0; y < tile.roi.height; ++y) {
+    float* row = image.ptr<float>(tile.roi.y + y) + tile.roi.x;
+    const float* c = tile.coverage.ptr<float>(y);
+    for (int x = 0; x < tile.roi.width; ++x) row[x] = static_cast<float>(row[x] * (1.0f - c[x]) + grey * c[x]);
+  }
+}
+
+void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>& regions) {
+  if (sigma_px <= 0) return;
+  const int ksize = 2 * static_cast<int>(std::ceil(4 * sigma_px)) + 1;
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  if (regions.empty()) {
+    cv::GaussianBlur(image, image, cv::Size(ksize, ksize), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+    return;
+  }
+  // OpenCV filters a sub-matrix using its parent's pixels around it (no
+  // BORDER_ISOLATED), so each region grown by the kernel radius is blurred exactly;
+  // reading from a copy keeps overlapping regions from being blurred twice.
+  const cv::Mat1f original = regions.size() > 1 ? image.clone() : image;
+  const int h = ksize / 2;
+  for (const cv::Rect& r : regions) {
+    const cv::Rect write = cv::Rect(r.x - h, r.y - h, r.width + 2 * h, r.height + 2 * h) & whole;
+    if (write.empty()) continue;
+    cv::Mat1f blurred;
+    cv::GaussianBlur(original(write), blurred, cv::Size(ksize, ksize), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+    blurred.copyTo(image(write));
+  }
+}
+
+cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed) {
+  cv::Mat1b out(image.size());
+  const auto& quantiles = NormalQuantiles();
+  const float sigma = static_cast<float>(noise_sigma);
+  tbb::parallel_for(0, image.rows, [&](int v) {
+    Random rng(Random::DeriveSeed(seed, static_cast<uint64_t>(v)));
+    const float* in = image.ptr<float>(v);
+    uint8_t* o = out.ptr<uint8_t>(v);
+    uint64_t bits = 0;
+    for (int u = 0; u < image.cols; ++u) {
+      if ((u & 3) == 0) bits = rng.NextU64();
+      const float noise = sigma * quantiles[(bits >> (16 * (u & 3))) & 0xFFFF];
+      const float value = std::nearbyint(in[u] + noise);
+      o[u] = static_cast<uint8_t>(std::clamp(value, 0.0f, 255.0f));
+    }
+  });
+  return out;
+}
+
+}  // namespace flatscan

@@ -1,0 +1,30 @@
+#pragma once
+// From scene radiance to an 8-bit image: irradiance (linear grey levels), lens blur
+// (Gaussian PSF), sensor noise (Gaussian), rounding and clipping to 8 bits.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "flatscan/simulation/coverage_renderer.h"
+#include "flatscan/simulation/scene_config.h"
+
+namespace flatscan {
+
+// Backlight irradiance: grey * (1 - vignetting * r^2), r the distance from the image
+// centre divided by the half diagonal.
+cv::Mat1f BacklightImage(int width, int height, double grey, double vignetting);
+
+// Blends `tile` into `image`: image = image * (1 - c) + grey * c inside tile.roi.
+void BlendCoverage(cv::Mat1f& image, const CoverageTile& tile, double grey);
+
+// Blurs `image` in place with a Gaussian of sigma `sigma_px`, only inside `regions`
+// grown by 4 sigma (elsewhere the image is smooth and blur would not change it by
+// more than 1e-4 grey). Empty regions: the whole image.
+void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>& regions);
+
+// Adds Gaussian noise (sigma in grey levels, deterministic for `seed`, independent
+// of the number of threads), rounds and clips to 8 bits.
+cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed);
+
+}  // namespace flatscan

@@ -1,0 +1,326 @@
+#include "flatscan/simulation/part_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Geometry>
+
+#include "flatscan/flatness/flatness_metrics.h"
+#include "flatscan/simulation/rest_pose.h"
+
+namespace flatscan {
+namespace {
+
+double BoxSdf(const Eigen::Vector2d& p, const Eigen::Vector2d& center, const Eigen::Vector2d& half) {
+  return RoundedRectSdf(p - center, half.x(), half.y(), 0.0);
+}
+
+// Minimum of f over the segment [p, q], from f at both ends, the middle, and the
+// vertex of the parabola through them (the segment is short next to the outline's
+// curvature, so this is accurate to its cubic term).
+template <typename F>
+double SegmentMinimum(const F& f, const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
+  const double fp = f(p);
+  if ((q - p).squaredNorm() < 1e-18) return fp;
+  const double fq = f(q), fm = f(0.5 * (p + q));
+  double best = std::min({fp, fq, fm});
+  // Parabola through the three values: f(t) = fp + b1 t + b2 t^2, t in [0, 1].
+  const double b2 = 2 * (fp - 2 * fm + fq);
+  if (b2 > 1e-15) {
+    const double b1 = 4 * fm - 3 * fp - fq;
+    const double t = -b1 / (2 * b2);
+    if (t > 0 && t < 1) best = std::min(best, f(p + t * (q - p)));
+  }
+  return best;
+}
+
+}  // namespace
+
+double PartGeometry::OuterSdf(const Eigen::Vector2d& p) const {
+  double d = RoundedRectSdf(p, half_width, half_height, corner_radius);
+  for (const Notch& n : notches) d = std::max(d, -BoxSdf(p, n.center, n.half_size));
+  return d;
+}
+
+double PartGeometry::FootprintSdf(const Eigen::Vector2d& p) const {
+  double d = OuterSdf(p);
+  for (const Hole& h : holes) d = std::max(d, -CircleSdf(p, h.center, h.radius));
+  return d;
+}
+
+double PartGeometry::WarpZ(const Eigen::Vector2d& p) const {
+  const double X = p.x() / half_width, Y = p.y() / half_height;
+  const Warp& c = warp;
+  return c.bend_x * X * X + c.bend_y * Y * Y + c.twist * X * Y + c.c30 * X * X * X +
+         c.c21 * X * X * Y + c.c12 * X * Y * Y + c.c03 * Y * Y * Y;
+}
+
+Eigen::Vector2d PartGeometry::WarpGradient(const Eigen::Vector2d& p) const {
+  const double X = p.x() / half_width, Y = p.y() / half_height;
+  const Warp& c = warp;
+  const double dX = 2 * c.bend_x * X + c.twist * Y + 3 * c.c30 * X * X + 2 * c.c21 * X * Y + c.c12 * Y * Y;
+  const double dY = 2 * c.bend_y * Y + c.twist * X + c.c21 * X * X + 2 * c.c12 * X * Y + 3 * c.c03 * Y * Y;
+  return {dX / half_width, dY / half_height};
+}
+
+std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) const {
+  std::vector<Eigen::Vector2d> out;
+  const double r = corner_radius;
+  const double sx = half_width - r, sy = half_height - r;
+  // Rounded rectangle, counter-clockwise from (a, -sy): straight edges and quarter arcs.
+  auto add_segment = [&](Eigen::Vector2d p, Eigen::Vector2d q) {
+    const int n = std::max(1, static_cast<int>(std::ceil((q - p).norm() / spacing)));
+    for (int i = 0; i < n; ++i) out.push_back(p + (q - p) * (static_cast<double>(i) / n));
+  };
+  auto add_arc = [&](Eigen::Vector2d c, double a0) {
+    if (r <= 0) {
+      out.push_back(c);
+      return;
+    }
+    const int n = std::max(1, static_cast<int>(std::ceil(r * M_PI / 2 / spacing)));
+    for (int i = 0; i < n; ++i) {
+      const double a = a0 + (M_PI / 2) * i / n;
+      out.push_back(c + r * Eigen::Vector2d(std::cos(a), std::sin(a)));
+    }
+  };
+  add_segment({half_width, -sy}, {half_width, sy});
+  add_arc({sx, sy}, 0.0);
+  add_segment({sx, half_height}, {-sx, half_height});
+  add_arc({-sx, sy}, M_PI / 2);
+  add_segment({-half_width, sy}, {-half_width, -sy});
+  add_arc({-sx, -sy}, M_PI);
+  add_segment({-sx, -half_height}, {sx, -half_height});
+  add_arc({sx, -sy}, 3 * M_PI / 2);
+  if (notches.empty()) return out;
+  // Remove what the notches cut away, then add the notches' own edges inside the part.
+  std::vector<Eigen::Vector2d> kept;
+  auto in_notch = [&](const Eigen::Vector2d& p, const Notch* except) {
+    for (const Notch& n : notches)
+      if (&n != except && BoxSdf(p, n.center, n.half_size) < 0) return true;
+    return false;
+  };
+  for (const Eigen::Vector2d& p : out)
+    if (!in_notch(p, nullptr)) kept.push_back(p);
+  for (const Notch& n : notches) {
+    const Eigen::Vector2d lo = n.center - n.half_size, hi = n.center + n.half_size;
+    std::vector<Eigen::Vector2d> edge;
+    const Eigen::Vector2d corners[4] = {lo, {hi.x(), lo.y()}, hi, {lo.x(), hi.y()}};
+    for (int i = 0; i < 4; ++i) {
+      const Eigen::Vector2d p = corners[i], q = corners[(i + 1) % 4];
+      const int m = std::max(1, static_cast<int>(std::ceil((q - p).norm() / spacing)));
+      for (int k = 0; k < m; ++k) {
+        const Eigen::Vector2d s = p + (q - p) * (static_cast<double>(k) / m);
+        if (RoundedRectSdf(s, half_width, half_height, r) < 0 && !in_notch(s, &n)) kept.push_back(s);
+      }
+    }
+  }
+  return kept;
+}
+
+std::vector<Eigen::Vector3d> PartGeometry::SampleRim(double spacing) const {
+  std::vector<Eigen::Vector3d> rim;
+  for (const Eigen::Vector2d& p : SampleOuterOutline(spacing)) rim.emplace_back(p.x(), p.y(), RimZ(p));
+  return rim;
+}
+
+std::vector<Eigen::Vector3d> PartGeometry::SampleBottomSurface(double spacing) const {
+  std::vector<Eigen::Vector3d> points = SampleRim(spacing);
+  if (wall_height > 0) return points;  // the lid's underside is H above the rim
+  for (const Hole& h : holes) {
+    const int n = std::max(8, static_cast<int>(std::ceil(2 * M_PI * h.radius / spacing)));
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      const Eigen::Vector2d p = h.center + h.radius * Eigen::Vector2d(std::cos(a), std::sin(a));
+      if (FootprintSdf(p) <= 1e-9) points.emplace_back(p.x(), p.y(), WarpZ(p));
+    }
+  }
+  const double step = std::max(spacing, 0.25);
+  for (double y = -half_height + step / 2; y < half_height; y += step)
+    for (double x = -half_width + step / 2; x < half_width; x += step) {
+      const Eigen::Vector2d p(x, y);
+      if (FootprintSdf(p) < 0) points.emplace_back(x, y, WarpZ(p));
+    }
+  return points;
+}
+
+Eigen::Vector3d PartGeometry::CenterOfMass() const {
+  // Midpoint-rule integral over a 0.1 mm grid: the sheet at mid-thickness, and the
+  // walls (outer band of width t) at mid-height.
+  const double step = 0.1;
+  const double sheet = thickness > 0 ? thickness : 1.0;  // a zero-thickness sheet: by area
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double mass = 0.0;
+  for (double y = -half_height + step / 2; y < half_height; y += step)
+    for (double x = -half_width + step / 2; x < half_width; x += step) {
+      const Eigen::Vector2d p(x, y);
+      const double d = FootprintSdf(p);
+      if (d >= 0) continue;
+      const double w = WarpZ(p);
+      double m = sheet;
+      double z = w + thickness / 2;
+      if (wall_height > 0 && OuterSdf(p) > -thickness) {
+        z = (sheet * (w + thickness / 2) + wall_height * (w - wall_height / 2)) / (sheet + wall_height);
+        m += wall_height;
+      }
+      sum += m * Eigen::Vector3d(x, y, z);
+      mass += m;
+    }
+  return sum / mass;
+}
+
+PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng) {
+  auto pick = [&](const Range& r) { return rng.Uniform(r.lo, r.hi); };
+  auto pick_int = [&](const std::array<int, 2>& r) {
+    return r[0] + static_cast<int>(std::floor(rng.Uniform() * (r[1] - r[0] + 1)));
+  };
+  PartGeometry g;
+  g.half_width = pick(spec.width_mm) / 2;
+  g.half_height = pick(spec.height_mm) / 2;
+  const double min_half = std::min(g.half_width, g.half_height);
+  g.corner_radius = std::min(pick(spec.corner_radius_mm), 0.9 * min_half);
+  g.thickness = pick(spec.thickness_mm);
+  g.wall_height = pick(spec.wall_height_mm);
+  // Holes inside the footprint, clear of the edge (and of the walls) and each other.
+  const int holes = pick_int(spec.holes);
+  for (int i = 0, tries = 0; i < holes && tries < 200; ++tries) {
+    Hole h;
+    h.radius = std::min(pick(spec.hole_radius_mm), 0.3 * min_half);
+    h.center = {rng.Uniform(-g.half_width, g.half_width), rng.Uniform(-g.half_height, g.half_height)};
+    const double clearance = h.radius + 1.0 + g.thickness;
+    bool ok = g.OuterSdf(h.center) < -clearance;
+    for (const Hole& o : g.holes) ok = ok && (o.center - h.center).norm() > o.radius + h.radius + 1.0;
+    if (!ok) continue;
+    g.holes.push_back(h);
+    ++i;
+  }
+  // Notches on the straight part of random edges.
+  const int notches = pick_int(spec.notches);
+  for (int i = 0, tries = 0; i < notches && tries < 200; ++tries) {
+    const double size = pick(spec.notch_size_mm);
+    const int side = static_cast<int>(std::floor(rng.Uniform() * 4));
+    const bool vertical_edge = side < 2;
+    const double edge_half = (vertical_edge ? g.half_height : g.half_width) - g.corner_radius - size;
+    if (edge_half <= 0) continue;
+    const double along = rng.Uniform(-edge_half, edge_half);
+    const double depth = 0.6 * size;
+    Notch n;
+    if (vertical_edge) {
+      n.center = {side == 0 ? g.half_width : -g.half_width, along};
+      n.half_size = {depth, size / 2};
+    } else {
+      n.center = {along, side == 2 ? g.half_height : -g.half_height};
+      n.half_size = {size / 2, depth};
+    }
+    bool ok = true;
+    for (const Notch& o : g.notches) ok = ok && (o.center - n.center).cwiseAbs().maxCoeff() > size + 1.0;
+    for (const Hole& h : g.holes) ok = ok && BoxSdf(h.center, n.center, n.half_size) > h.radius + 1.0;
+    if (!ok) continue;
+    g.notches.push_back(n);
+    ++i;
+  }
+  g.warp.bend_x = pick(spec.bending_mm);
+  g.warp.bend_y = pick(spec.bending_mm);
+  g.warp.twist = pick(spec.twist_mm);
+  const double r = spec.random_warp_mm;
+  g.warp.bend_x += rng.Uniform(-r, r);
+  g.warp.bend_y += rng.Uniform(-r, r);
+  g.warp.c30 = rng.Uniform(-r, r);
+  g.warp.c21 = rng.Uniform(-r, r);
+  g.warp.c12 = rng.Uniform(-r, r);
+  g.warp.c03 = rng.Uniform(-r, r);
+  return g;
+}
+
+PartOccluder::PartOccluder(const PartGeometry& geometry, const Rigid3d& support_from_part)
+    : geometry_(geometry), support_from_part_(support_from_part), part_from_support_(support_from_part.Inverse()) {}
+
+double PartOccluder::IntersectSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double offset) const {
+  double s = (offset - o.z()) / d.z();
+  for (int iter = 0; iter < 20; ++iter) {
+    const Eigen::Vector2d xy(o.x() + s * d.x(), o.y() + s * d.y());
+    const double h = o.z() + s * d.z() - geometry_.WarpZ(xy) - offset;
+    const double dh = d.z() - geometry_.WarpGradient(xy).dot(d.head<2>());
+    const double step = h / dh;
+    s -= step;
+    if (std::abs(step * d.z()) < 1e-12) break;
+  }
+  return s;
+}
+
+double PartOccluder::RaySignedDistance(const Ray& ray) const {
+  const Eigen::Vector3d o = part_from_support_ * ray.origin;
+  const Eigen::Vector3d d = part_from_support_.rotation * ray.direction;
+  const PartGeometry& g = geometry_;
+  auto xy_at = [&](double s) { return Eigen::Vector2d(o.x() + s * d.x(), o.y() + s * d.y()); };
+  const double s_top = IntersectSurface(o, d, g.thickness);
+  const double s_mid = g.thickness > 0 ? IntersectSurface(o, d, 0.0) : s_top;
+  // Sheet: between the top and bottom surfaces the ray is inside the solid wherever
+  // it is over the footprint.
+  auto footprint = [&](const Eigen::Vector2d& p) { return g.FootprintSdf(p); };
+  double d_min = SegmentMinimum(footprint, xy_at(s_top), xy_at(s_mid));
+  if (g.wall_height > 0) {
+    // Walls: the outer band of width t, from the sheet's bottom down to the rim.
+    const double s_rim = IntersectSurface(o, d, -g.wall_height);
+    auto wall = [&](const Eigen::Vector2d& p) {
+      const double outer = g.OuterSdf(p);
+      return std::max(outer, -g.thickness - outer);
+    };
+    d_min = std::min(d_min, SegmentMinimum(wall, xy_at(s_mid), xy_at(s_rim)));
+  }
+  return d_min;
+}
+
+std::vector<Eigen::Vector3d> PartOccluder::BoundingPoints() const {
+  const PartGeometry& g = geometry_;
+  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
+  for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.5)) {
+    z_lo = std::min(z_lo, g.RimZ(p));
+    z_hi = std::max(z_hi, g.WarpZ(p) + g.thickness);
+  }
+  std::vector<Eigen::Vector3d> out;
+  for (double z : {z_lo, z_hi})
+    for (double sx : {-1.0, 1.0})
+      for (double sy : {-1.0, 1.0}) out.push_back(support_from_part_ * Eigen::Vector3d(sx * g.half_width, sy * g.half_height, z));
+  return out;
+}
+
+PartTruth RestAndPlacePart(const PartGeometry& geometry, double rotation_deg, const Eigen::Vector2d& position) {
+  const RestPose rest = ComputeRestPose(geometry.SampleBottomSurface(0.1), geometry.CenterOfMass());
+  Rigid3d placement;
+  placement.rotation = Eigen::AngleAxisd(rotation_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  placement.translation = Eigen::Vector3d(position.x(), position.y(), 0.0);
+  PartTruth truth;
+  truth.support_from_part = placement * rest.support_from_part;
+  truth.contacts = rest.contacts;
+  std::vector<double> heights;
+  for (const Eigen::Vector3d& p : geometry.SampleRim(0.05)) {
+    truth.rim.push_back(truth.support_from_part * p);
+    heights.push_back(truth.rim.back().z());
+  }
+  const FlatnessValues values = ComputeFlatness(truth.rim, heights);
+  truth.flatness_mm = values.flatness_mm;
+  truth.lsq_pv_mm = values.lsq_pv_mm;
+  truth.minzone_mm = values.minzone_mm;
+  return truth;
+}
+
+nlohmann::json PartGeometryToJson(const PartGeometry& g) {
+  nlohmann::json j;
+  j["width_mm"] = 2 * g.half_width;
+  j["height_mm"] = 2 * g.half_height;
+  j["corner_radius_mm"] = g.corner_radius;
+  j["thickness_mm"] = g.thickness;
+  j["wall_height_mm"] = g.wall_height;
+  j["holes"] = nlohmann::json::array();
+  for (const Hole& h : g.holes) j["holes"].push_back({{"center_mm", {h.center.x(), h.center.y()}}, {"radius_mm", h.radius}});
+  j["notches"] = nlohmann::json::array();
+  for (const Notch& n : g.notches)
+    j["notches"].push_back({{"center_mm", {n.center.x(), n.center.y()}}, {"half_size_mm", {n.half_size.x(), n.half_size.y()}}});
+  j["warp_mm"] = {{"bend_x", g.warp.bend_x}, {"bend_y", g.warp.bend_y}, {"twist", g.warp.twist},
+                  {"c30", g.warp.c30},       {"c21", g.warp.c21},       {"c12", g.warp.c12},
+                  {"c03", g.warp.c03}};
+  return j;
+}
+
+}  // namespace flatscan

@@ -1,0 +1,113 @@
+#pragma once
+// The simulated part: a warped sheet of thickness t with an outline (rounded
+// rectangle with optional round holes and rectangular edge notches) and optional
+// folded-down walls along its outer edge.
+//
+// Part frame (mm): the footprint lies in (x, y) centred on the origin, z up. The
+// sheet's bottom surface is z = w(x, y), its top z = w(x, y) + t, and its side faces
+// are vertical (they follow the outline). With walls of height H the outer band of
+// width t (the wall) extends down to z = w(x, y) - H, so the part rests on the walls'
+// bottom edges. The warp, with X = x / a and Y = y / b (a, b the half sizes), is
+//   w = bend_x X^2 + bend_y Y^2 + twist X Y + c30 X^3 + c21 X^2 Y + c12 X Y^2 + c03 Y^3,
+// each coefficient in mm (constant and linear terms are rigid motions and omitted).
+//
+// The bottom rim is the outer outline's bottom edge: the curve the part stands on,
+// and the set over which flatness is defined (DESIGN section 3).
+#include <array>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "flatscan/geometry/rigid3.h"
+#include "flatscan/simulation/occluder.h"
+#include "flatscan/simulation/scene_config.h"
+#include "flatscan/util/random.h"
+
+namespace flatscan {
+
+struct Hole {
+  Eigen::Vector2d center;
+  double radius = 0.0;
+};
+
+// Axis-aligned box cut into the outline, centred on an edge.
+struct Notch {
+  Eigen::Vector2d center;
+  Eigen::Vector2d half_size;
+};
+
+struct Warp {
+  double bend_x = 0, bend_y = 0, twist = 0;
+  double c30 = 0, c21 = 0, c12 = 0, c03 = 0;
+};
+
+struct PartGeometry {
+  double half_width = 5.0;   // a, mm
+  double half_height = 5.0;  // b, mm
+  double corner_radius = 0.5;
+  std::vector<Hole> holes;
+  std::vector<Notch> notches;
+  double thickness = 0.2;    // t, mm
+  double wall_height = 0.0;  // H, mm (0: flat sheet)
+  Warp warp;
+
+  // Signed distance (mm, negative inside) to the outer outline (rounded rectangle
+  // minus notches), and to the footprint (also minus holes).
+  double OuterSdf(const Eigen::Vector2d& p) const;
+  double FootprintSdf(const Eigen::Vector2d& p) const;
+  // w(x, y) and its gradient.
+  double WarpZ(const Eigen::Vector2d& p) const;
+  Eigen::Vector2d WarpGradient(const Eigen::Vector2d& p) const;
+  // z of the bottom rim under (x, y): w - H.
+  double RimZ(const Eigen::Vector2d& p) const { return WarpZ(p) - wall_height; }
+  // Total height of the silhouette-forming side face: t + H.
+  double SideHeight() const { return thickness + wall_height; }
+
+  // Points on the outer outline, about `spacing` mm apart (part frame, 2D).
+  std::vector<Eigen::Vector2d> SampleOuterOutline(double spacing) const;
+  // Bottom rim points (3D, part frame).
+  std::vector<Eigen::Vector3d> SampleRim(double spacing) const;
+  // Samples of the whole bottom surface (rim, hole edges, interior), for the rest pose.
+  std::vector<Eigen::Vector3d> SampleBottomSurface(double spacing) const;
+  // Centre of mass (uniform sheet and walls).
+  Eigen::Vector3d CenterOfMass() const;
+};
+
+// Random part from the scene's part ranges.
+PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng);
+
+// A part placed on the support: support_from_part includes the rest pose.
+class PartOccluder : public Occluder {
+ public:
+  PartOccluder(const PartGeometry& geometry, const Rigid3d& support_from_part);
+  double RaySignedDistance(const Ray& ray) const override;
+  std::vector<Eigen::Vector3d> BoundingPoints() const override;
+
+ private:
+  // Ray parameter s where the ray meets z = w(x, y) + offset (part frame).
+  double IntersectSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double offset) const;
+  const PartGeometry& geometry_;
+  Rigid3d support_from_part_;
+  Rigid3d part_from_support_;
+};
+
+// Truth of a placed part (DESIGN section 5): computed from the geometry only.
+struct PartTruth {
+  Rigid3d support_from_part;         // rest pose and placement
+  std::array<int, 3> contacts{};     // indices into the bottom-surface samples
+  std::vector<Eigen::Vector3d> rim;  // bottom rim, support frame
+  double flatness_mm = 0.0;
+  double lsq_pv_mm = 0.0;
+  double minzone_mm = 0.0;
+};
+
+// Rests the part on the support (three contact points of its lower convex hull under
+// its centre of mass) and places it: rotation about the support normal by
+// `rotation_deg`, then its centre of mass's footprint moved to `position` (mm).
+PartTruth RestAndPlacePart(const PartGeometry& geometry, double rotation_deg,
+                           const Eigen::Vector2d& position);
+
+nlohmann::json PartGeometryToJson(const PartGeometry& geometry);
+
+}  // namespace flatscan

@@ -1,0 +1,92 @@
+#include "flatscan/simulation/part_model.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace flatscan {
+namespace {
+
+PartGeometry SharpRectangle() {
+  PartGeometry g;
+  g.half_width = 8.0;
+  g.half_height = 6.0;
+  g.corner_radius = 0.0;
+  g.thickness = 0.2;
+  return g;
+}
+
+void ExpectThreeContactsOnPlane(const PartGeometry& g, const PartTruth& truth) {
+  const std::vector<Eigen::Vector3d> bottom = g.SampleBottomSurface(0.1);
+  for (int i : truth.contacts) EXPECT_NEAR((truth.support_from_part * bottom[i]).z(), 0.0, 1e-9);
+  EXPECT_NE(truth.contacts[0], truth.contacts[1]);
+  EXPECT_NE(truth.contacts[1], truth.contacts[2]);
+  EXPECT_NE(truth.contacts[0], truth.contacts[2]);
+  for (const Eigen::Vector3d& p : bottom) EXPECT_GE((truth.support_from_part * p).z(), -1e-9);
+}
+
+TEST(PartModel, PureTwistFlatnessMatchesAnalyticValue) {
+  // w = tw X Y: corners at -tw, -tw, +tw, +tw. It rests on both low corners and one
+  // high corner, plane z = tw (X + Y - 1) in normalized coordinates; the fourth corner
+  // is 4 tw above it vertically, 4 tw / sqrt(1 + (tw/a)^2 + (tw/b)^2) along the normal.
+  for (double tw : {0.05, 0.12, -0.2}) {
+    PartGeometry g = SharpRectangle();
+    g.warp.twist = tw;
+    const PartTruth truth = RestAndPlacePart(g, 30.0, Eigen::Vector2d(1.0, 2.0));
+    const double a = g.half_width, b = g.half_height;
+    const double analytic = 4 * std::abs(tw) / std::sqrt(1 + tw * tw / (a * a) + tw * tw / (b * b));
+    EXPECT_NEAR(truth.flatness_mm, analytic, 1e-4) << "twist " << tw;
+    ExpectThreeContactsOnPlane(g, truth);
+  }
+}
+
+TEST(PartModel, PureBendingFlatnessMatchesAnalyticValue) {
+  // Dome bent along x (ends down): rests on its two short edges, the middle of the
+  // long edges is |bend| above the plane.
+  PartGeometry g = SharpRectangle();
+  g.warp.bend_x = -0.15;
+  PartTruth truth = RestAndPlacePart(g, -40.0, Eigen::Vector2d(-2.0, 0.5));
+  EXPECT_NEAR(truth.flatness_mm, 0.15, 1e-4);
+  ExpectThreeContactsOnPlane(g, truth);
+  // Bent along both axes (ends down): rests on the four corners, the edge midpoints
+  // of the long sides are |bend_y| above them... and of the short sides |bend_x|.
+  g.warp.bend_y = -0.09;
+  truth = RestAndPlacePart(g, 0.0, Eigen::Vector2d::Zero());
+  EXPECT_NEAR(truth.flatness_mm, 0.15, 1e-4);
+  ExpectThreeContactsOnPlane(g, truth);
+}
+
+TEST(PartModel, FlatSheetRestsFlatWithWallsOnTheirRim) {
+  PartGeometry g = SharpRectangle();
+  g.corner_radius = 1.0;
+  g.wall_height = 1.5;
+  const PartTruth truth = RestAndPlacePart(g, 10.0, Eigen::Vector2d::Zero());
+  EXPECT_NEAR(truth.flatness_mm, 0.0, 1e-9);
+  EXPECT_NEAR(truth.lsq_pv_mm, 0.0, 1e-9);
+  EXPECT_NEAR(truth.minzone_mm, 0.0, 1e-9);
+  for (const Eigen::Vector3d& p : truth.rim) EXPECT_NEAR(p.z(), 0.0, 1e-9);
+}
+
+TEST(PartModel, SignedDistancesOfOutlineHolesAndNotches) {
+  PartGeometry g = SharpRectangle();
+  g.corner_radius = 2.0;
+  g.holes.push_back({Eigen::Vector2d(2.0, 1.0), 1.0});
+  g.notches.push_back({Eigen::Vector2d(8.0, 0.0), Eigen::Vector2d(0.6, 1.0)});
+  EXPECT_NEAR(g.FootprintSdf({0.0, 0.0}), -std::min(6.0, (Eigen::Vector2d(2, 1).norm() - 1.0)), 1e-12);
+  EXPECT_NEAR(g.FootprintSdf({2.0, 1.0}), 1.0, 1e-12);        // hole centre
+  EXPECT_NEAR(g.FootprintSdf({8.0, 0.0}), 0.6, 1e-12);        // notch
+  EXPECT_NEAR(g.OuterSdf({7.0, 0.0}), -0.4, 1e-12);  // 1 mm from the edge, 0.4 mm from the notch
+  EXPECT_NEAR(g.OuterSdf({8.0 + std::sqrt(2.0), 6.0 + std::sqrt(2.0)}), std::hypot(2 + std::sqrt(2.0), 2 + std::sqrt(2.0)) - 2.0, 1e-12);
+  for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.1)) EXPECT_NEAR(g.OuterSdf(p), 0.0, 1e-9);
+}
+
+TEST(PartModel, CenterOfMassOfSymmetricSheetIsAtMidThickness) {
+  PartGeometry g = SharpRectangle();
+  const Eigen::Vector3d com = g.CenterOfMass();
+  EXPECT_NEAR(com.x(), 0.0, 1e-9);
+  EXPECT_NEAR(com.y(), 0.0, 1e-9);
+  EXPECT_NEAR(com.z(), g.thickness / 2, 1e-9);
+}
+
+}  // namespace
+}  // namespace flatscan

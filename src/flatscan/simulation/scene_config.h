@@ -1,0 +1,135 @@
+#pragma once
+// Everything the simulator ("digital twin") needs to render an inspection station:
+// the two cameras, their rig, the support plane, lighting and optics, the calibration
+// board, the plane markers and the population of parts. Presets give defaults; a
+// scene file (YAML or JSON, see docs/simulator.md) overrides any field.
+//
+// Ranges are [lo, hi] pairs sampled uniformly per part; a scalar in a scene file
+// means lo = hi. Units: mm, degrees, pixels, grey levels (8-bit).
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace flatscan {
+
+struct Range {
+  double lo = 0.0;
+  double hi = 0.0;
+};
+
+struct CameraSpec {
+  int width = 2592;
+  int height = 1944;
+  double pixel_size_um = 2.2;
+  double focal_length_mm = 25.0;
+  std::vector<double> distortion = {-0.08, 0.12, 0.0002, -0.0001, 0.0};  // k1 k2 p1 p2 k3 [k4 k5 k6]
+  std::array<double, 2> principal_point_offset_px = {0.0, 0.0};
+};
+
+struct RigSpec {
+  double baseline_mm = 60.0;
+  double working_distance_mm = 200.0;  // camera centres' height above the plane centre
+  std::array<double, 2> roll_deg = {0.0, 0.0};  // rotation of each camera about its axis
+  // Each camera aims at the plane centre; this offsets the aim point of camera 2
+  // (mm, in the plane) so the true rig is not perfectly symmetric.
+  std::array<double, 2> right_aim_offset_mm = {0.0, 0.0};
+};
+
+struct PlaneSpec {
+  double tilt_deg = 0.0;          // angle between the plane normal and the rig's axis
+  double tilt_azimuth_deg = 0.0;  // direction of the tilt axis in the plane
+};
+
+struct LightingSpec {
+  double backlight_grey = 220.0;
+  double vignetting = 0.08;  // fractional fall-off of the backlight at the image corners
+  double part_grey = 20.0;
+  double marker_grey = 15.0;
+  double board_white_grey = 200.0;
+  double board_black_grey = 35.0;
+  double background_grey = 60.0;  // behind the board in front-lit calibration images
+};
+
+struct OpticsSpec {
+  double blur_sigma_px = 1.0;       // Gaussian lens PSF
+  double noise_sigma_grey = 2.0;    // Gaussian sensor noise
+};
+
+struct MarkerSpec {
+  double inner_radius_mm = 1.0;   // transparent disc
+  double outer_radius_mm = 2.5;   // black ring from inner to outer radius
+  // Marker centres at +-inset * the half-size of the largest centred rectangle in the
+  // common field of view.
+  double inset = 0.8;
+};
+
+struct BoardSpec {
+  std::array<int, 2> inner_corners = {9, 6};  // columns x rows of inner corners
+  double square_mm = 2.5;
+  double margin_squares = 1.0;  // white border around the squares
+  int poses = 12;
+  double max_tilt_deg = 25.0;
+  Range distance_offset_mm = {-8.0, 8.0};  // board distance change from the working distance
+};
+
+struct PartSpec {
+  Range width_mm = {12.0, 20.0};
+  Range height_mm = {8.0, 18.0};
+  Range corner_radius_mm = {0.3, 1.5};
+  std::array<int, 2> holes = {0, 2};  // count range
+  Range hole_radius_mm = {0.4, 1.2};
+  std::array<int, 2> notches = {0, 2};
+  Range notch_size_mm = {0.8, 2.0};
+  Range thickness_mm = {0.1, 0.3};
+  Range wall_height_mm = {0.0, 0.0};  // folded walls (0: none)
+  Range bending_mm = {-0.15, 0.15};   // sag at the ends of each axis
+  Range twist_mm = {-0.15, 0.15};     // corner height of the x*y term
+  double random_warp_mm = 0.02;       // amplitude of each random 2nd/3rd-order term
+  Range rotation_deg = {0.0, 360.0};
+  double jitter_mm = 0.1;             // placement jitter between repeated shots
+  double jitter_deg = 0.2;
+};
+
+struct DatasetSpec {
+  int parts = 3;
+  int shots = 1;
+  bool markers_in_part_images = false;
+};
+
+struct SceneConfig {
+  std::string name = "paper";
+  CameraSpec left_camera;
+  CameraSpec right_camera;
+  RigSpec rig;
+  PlaneSpec plane;
+  LightingSpec lighting;
+  OpticsSpec optics;
+  MarkerSpec markers;
+  BoardSpec board;
+  PartSpec part;
+  DatasetSpec dataset;
+};
+
+// Names of the built-in presets ("paper": DESIGN section 4; "compact": a 1920x1200,
+// 12 mm lens, 40 mm baseline rig with stronger distortion).
+std::vector<std::string> ScenePresetNames();
+// Throws InputError "unknown preset 'x' (expected one of: paper, compact)".
+SceneConfig ScenePreset(const std::string& name);
+
+// Applies a scene document to `base`. Keys mirror the struct fields (see
+// docs/simulator.md); `camera` sets both cameras, `left_camera`/`right_camera` one.
+// Errors name `source` (the file) and the field path, e.g.
+//   "scene.yml: optics.noise_sigma_grey must be >= 0, got -1".
+SceneConfig ApplySceneDocument(SceneConfig base, const nlohmann::json& doc,
+                               const std::string& source);
+// Reads a YAML (OpenCV FileStorage or plain block YAML) or JSON scene file; the
+// document may name a base preset with `preset: NAME` (default paper).
+SceneConfig LoadSceneFile(const std::filesystem::path& path);
+
+// The fully resolved scene, for writing next to a dataset (scene.json).
+nlohmann::json SceneToJson(const SceneConfig& scene);
+
+}  // namespace flatscan

@@ -1,0 +1,31 @@
+#pragma once
+// Helpers shared by the tests: scratch folders and running the flatscan binary.
+#include <filesystem>
+#include <string>
+
+namespace flatscan::testing {
+
+// A fresh, empty folder under the system temp folder, removed on destruction.
+class ScratchDir {
+ public:
+  explicit ScratchDir(const std::string& name);
+  ~ScratchDir();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+// Runs build/flatscan with `args` (a shell-quoted string).
+CommandResult RunFlatscan(const std::string& args);
+
+// Reads a whole file as bytes.
+std::string ReadFileBytes(const std::filesystem::path& path);
+
+}  // namespace flatscan::testing
