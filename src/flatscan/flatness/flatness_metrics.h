@@ -9,6 +9,11 @@
 //   minzone_mm  : ISO 1101 flatness: the smallest distance between two parallel planes
 //                 enclosing all points (exact, by linear programming, refined until
 //                 the plane's tilt no longer changes the width by more than 1e-12 mm).
+//                 The refinement starts at the TLS plane and stops at a strict local
+//                 minimum of the width over normals; a distant, lower minimum would beat
+//                 it by at most width * tan^2(angle between the normals) / 2, which is
+//                 negligible for flat point sets (see MinimumZoneFlatness in the .cc).
+// All functions throw std::invalid_argument for fewer than 3 points.
 #include <vector>
 
 #include <Eigen/Core>
@@ -16,7 +21,7 @@
 namespace flatscan {
 
 struct PlaneFit {
-  Eigen::Vector3d normal;    // unit
+  Eigen::Vector3d normal;    // unit, oriented with normal.z() >= 0
   Eigen::Vector3d centroid;  // a point on the plane
 };
 
@@ -37,6 +42,7 @@ struct FlatnessValues {
 };
 
 // heights[i] is points[i]'s height above the support plane (for flatness_mm).
+// Throws std::invalid_argument if the sizes differ.
 FlatnessValues ComputeFlatness(const std::vector<Eigen::Vector3d>& points,
                                const std::vector<double>& heights);
 

@@ -26,7 +26,7 @@ constexpr double kPrimalTol = 1e-12;
 constexpr double kPhase1Tol = 1e-9;
 // After this many consecutive degenerate pivots, price by Bland's rule until the
 // objective strictly decreases again.
-constexpr int kDegenerateRunForBland = 0;
+constexpr int kDegenerateRunForBland = 8;
 
 class RevisedSimplex {
  public:
@@ -236,8 +236,7 @@ StandardFormLpResult SolveStandardFormLp(const Eigen::MatrixXd& A, const Eigen::
   Eigen::VectorXd cost = Eigen::VectorXd::Zero(n + m);
   cost.tail(m).setOnes();
   simplex.Optimize(cost);  // phase 1 is bounded below by 0
-  const double bmax = m > 0 ? bw.maxCoeff() : 0.0;
-  if (simplex.ArtificialTotal() > kPhase1Tol * bmax) {
+  if (simplex.ArtificialTotal() > kPhase1Tol * bw.maxCoeff()) {
     result.status = StandardFormLpResult::Status::kInfeasible;
     return result;
   }

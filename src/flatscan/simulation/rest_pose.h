@@ -25,12 +25,15 @@ struct RestPose {
   // spin about z, and the centre of mass lands at x = y = 0.
   Rigid3d support_from_part;
   std::array<int, 3> contacts{};           // indices into the input points
-  std::array<double, 3> barycentric{};     // centre of mass in the contact triangle, all > 0
+  // Centre of mass (its vertical projection) in the contact triangle: all > 0, or = 0
+  // when it lies over an edge of the triangle (a degenerate, e.g. symmetric, part).
+  std::array<double, 3> barycentric{};
 };
 
 // `points`: samples of the part's bottom surface in the part frame (mm), z roughly up.
-// Throws std::invalid_argument with a message if fewer than 3 points or if the
-// centre of mass is not above the points' convex hull.
+// Throws std::invalid_argument with a message if fewer than 3 points, if the points
+// are collinear seen from above, or if the centre of mass is not above the points'
+// convex hull (initially, or after tilting onto the support facet: the part tips).
 RestPose ComputeRestPose(const std::vector<Eigen::Vector3d>& points,
                          const Eigen::Vector3d& center_of_mass);
 
