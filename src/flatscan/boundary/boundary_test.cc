@@ -1,0 +1,142 @@
+#include "flatscan/boundary/boundary.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "flatscan/boundary/zernike.h"
+#include "flatscan/simulation/coverage_renderer.h"
+#include "flatscan/simulation/image_formation.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// Exact-coverage image of a 2D shape (signed distance in px, negative = dark), with
+// image point (x, y) = plane point (x, y): a distortion-free camera looking at a
+// plane at distance f with focal length f, principal point at the origin.
+cv::Mat1b RenderShape(int width, int height, const PlanarOccluder::Sdf2d& sdf, double blur, double noise,
+                      uint64_t seed, std::vector<Eigen::Vector2d> outline) {
+  Camera cam;
+  cam.width = width;
+  cam.height = height;
+  cam.fx = cam.fy = 1000.0;
+  cam.cx = cam.cy = 0.0;
+  Rigid3d cam_from_plane;
+  cam_from_plane.translation = Eigen::Vector3d(0, 0, 1000.0);
+  // The "support" frame is the plane frame here; the occluder lies in it at z = 0.
+  const PlanarOccluder occluder(Rigid3d(), sdf, std::move(outline));
+  const CoverageTile tile = RenderCoverage(cam, cam_from_plane, occluder);
+  cv::Mat1f radiance(height, width, 220.0f);
+  BlendCoverage(radiance, tile, 20.0);
+  BlurRegions(radiance, blur, {});
+  return QuantizeWithNoise(radiance, noise, seed);
+}
+
+struct ErrorStats {
+  double rms = 0, max = 0, bias = 0;
+  int n = 0;
+};
+
+ErrorStats DiscErrors(const BoundaryResult& r, Eigen::Vector2d c, double radius) {
+  ErrorStats s;
+  for (const EdgePoint& p : r.points) {
+    const double e = (Eigen::Vector2d(p.x, p.y) - c).norm() - radius;
+    s.rms += e * e;
+    s.bias += e;
+    s.max = std::max(s.max, std::abs(e));
+    ++s.n;
+  }
+  s.rms = std::sqrt(s.rms / std::max(s.n, 1));
+  s.bias /= std::max(s.n, 1);
+  return s;
+}
+
+TEST(Boundary, ZernikeIsExactOnAnIdealStep) {
+  // A sharp vertical step between pixel columns: no blur, no noise. Coverage makes
+  // the edge at x = 20.3 (pixel 20 is 80% dark).
+  for (double edge : {19.8, 20.0, 20.3}) {
+    const cv::Mat1b img = RenderShape(40, 40, [edge](const Eigen::Vector2d& p) { return p.x() - edge; }, 0.0, 0.0, 1,
+                                      {{-1, -1}, {41, -1}, {41, 41}, {-1, 41}});
+    const ZernikeEdge z = ZernikeEdgeAt(img, 20, 20);
+    ASSERT_TRUE(z.valid);
+    EXPECT_NEAR(z.nx, 1.0, 1e-6);
+    EXPECT_NEAR(20 + z.offset_px, edge, 0.03);  // 8-bit rounding of the covered pixel
+    EXPECT_NEAR(z.step, 200.0, 8.0);  // the discrete disc masks lose ~3% of the step
+  }
+}
+
+TEST(Boundary, BlurModelOnABlurredNoisyDisc) {
+  const Eigen::Vector2d c(40.3, 38.7);
+  for (double radius : {5.0, 12.5, 30.0}) {
+    const cv::Mat1b img = RenderShape(
+        96, 96, [&](const Eigen::Vector2d& p) { return (p - c).norm() - radius; }, 1.0, 2.0, 7,
+        {c + Eigen::Vector2d(-radius, -radius), c + Eigen::Vector2d(radius, radius)});
+    const BoundaryResult r = DetectBoundary(img);
+    ASSERT_EQ(r.contours.size(), 1u) << radius;
+    EXPECT_TRUE(r.contours[0].closed);
+    const ErrorStats s = DiscErrors(r, c, radius);
+    EXPECT_GT(s.n, 5 * radius);
+    EXPECT_LT(s.rms, 0.03) << radius;
+    EXPECT_LT(std::abs(s.bias), 0.03) << radius;
+    EXPECT_NEAR(r.blur_sigma_px, 1.0, 0.25);
+    for (const EdgePoint& p : r.points) {  // normals point outward (dark disc, bright field)
+      const Eigen::Vector2d radial = (Eigen::Vector2d(p.x, p.y) - c).normalized();
+      EXPECT_GT(radial.dot(Eigen::Vector2d(p.nx, p.ny)), 0.99);
+    }
+    // The paper's operator alone is biased under blur; the model removes that.
+    BoundaryOptions zernike;
+    zernike.method = EdgeMethod::kZernike;
+    EXPECT_GT(DiscErrors(DetectBoundary(img, zernike), c, radius).rms, 1.5 * s.rms);
+  }
+}
+
+TEST(Boundary, CrossRowsInterpolatesTheChainAtEveryRow) {
+  const Eigen::Vector2d c(40.0, 40.0);
+  const cv::Mat1b img = RenderShape(
+      80, 80, [&](const Eigen::Vector2d& p) { return (p - c).norm() - 20.0; }, 1.0, 0.0, 1, {{19, 19}, {61, 61}});
+  const BoundaryResult r = DetectBoundary(img);
+  const std::vector<RowCrossing> rows = CrossRows(r);
+  // Rows 21..59 cross the circle twice (rows 20 and 60 graze it).
+  int count = 0;
+  for (const RowCrossing& rc : rows) {
+    if (rc.row < 22 || rc.row > 58) continue;
+    ++count;
+    const double dy = rc.row - c.y();
+    const double expected = c.x() + (rc.x > c.x() ? 1 : -1) * std::sqrt(400.0 - dy * dy);
+    EXPECT_NEAR(rc.x, expected, 0.05) << rc.row;
+    EXPECT_GT((rc.x - c.x()) * rc.nx, 0.0);  // outward normal
+  }
+  EXPECT_EQ(count, 2 * (58 - 22 + 1));
+  // Through a map (here a shift by (5, 0.5)) the crossings are those of the mapped circle.
+  const std::vector<RowCrossing> shifted =
+      CrossRows(r, [](const Eigen::Vector2d& p) { return Eigen::Vector2d(p + Eigen::Vector2d(5, 0.5)); });
+  int shifted_count = 0;
+  for (const RowCrossing& rc : shifted) {
+    if (rc.row < 23 || rc.row > 58) continue;
+    ++shifted_count;
+    const double dy = rc.row - (c.y() + 0.5);
+    EXPECT_NEAR(rc.x, c.x() + 5 + (rc.x > c.x() + 5 ? 1 : -1) * std::sqrt(400.0 - dy * dy), 0.05) << rc.row;
+  }
+  EXPECT_EQ(shifted_count, 2 * (58 - 23 + 1));
+}
+
+TEST(Boundary, BadImagesAreRejectedWithAMessage) {
+  auto message = [](const cv::Mat& m) {
+    try {
+      DetectBoundary(m);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_EQ(message(cv::Mat()), "image is empty (expected an 8-bit grey image)");
+  EXPECT_EQ(message(cv::Mat3b(50, 50)), "image must be 8-bit single-channel grey, got 3 channel(s) of depth 0");
+  EXPECT_EQ(message(cv::Mat1b(10, 50, uint8_t(0))), "image is 50x10 px, smaller than the edge operator's 13x13 window");
+  // No edge at all: an empty result, not an error.
+  EXPECT_TRUE(DetectBoundary(cv::Mat1b(64, 64, uint8_t(200))).points.empty());
+}
+
+}  // namespace
+}  // namespace flatscan
