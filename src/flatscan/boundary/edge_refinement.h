@@ -49,8 +49,10 @@ ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal);
 // `profile_sigma` > 0 (the edge profile's sigma along the axis, px) the centroid is
 // refined by a maximum-likelihood fit of the blurred step b + h Phi((x - x0) / sigma)
 // to the pixel values, which uses the noise-free information near the edge best.
+// `with_second_moment` also fills ProfileCrossing::second_moment (for the blur estimate).
 ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, const ProfileAxis& axis,
-                                       double window_sigma, double profile_sigma = 0.0);
+                                       double window_sigma, double profile_sigma = 0.0,
+                                       bool with_second_moment = false);
 
 struct ChainPoint {
   Eigen::Vector2d p;       // px

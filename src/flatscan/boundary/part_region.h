@@ -1,11 +1,11 @@
 #pragma once
 // Where to look for the part's boundary in a backlit image, found cheaply.
 //
-// The image is reduced 4x (area average) and thresholded between the dark part and
+// The image is sampled every 4th pixel and thresholded between the dark part and
 // the bright backlight (Otsu); cells of the reduced image whose 4-neighbours differ
 // mark the boundary. Full-resolution tiles of 16 x 16 px around those cells (grown
 // by one tile, so the blurred transition and Canny's neighbourhood are inside) are
-// merged into row runs. Cost: about one pass over the image at 1/16 of its pixels.
+// merged into row runs. Cost: one pass over 1/16 of the image's pixels.
 #include <vector>
 
 #include <opencv2/core.hpp>
