@@ -182,7 +182,11 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
   const cv::Mat1b image = input;
   BoundaryResult result;
   if (options.restrict_to_part) {
-    result.regions = FindBoundaryBand(image).regions;
+    const BoundaryBand band = FindBoundaryBand(image);
+    result.regions = band.regions;
+    result.dark_level = band.dark_mean;
+    result.bright_level = band.bright_mean;
+    result.saturated_fraction = band.saturated_fraction;
   } else {
     result.regions.push_back(cv::Rect(0, 0, image.cols, image.rows));
   }
@@ -272,6 +276,8 @@ std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMa
         rc.step = ea.step + f * (eb.step - ea.step);
         rc.contour = static_cast<int>(c);
         rc.index = i;
+        rc.raw_x = ea.x + f * (eb.x - ea.x);
+        rc.raw_y = ea.y + f * (eb.y - ea.y);
         out.push_back(rc);
       }
     }

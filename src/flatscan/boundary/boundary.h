@@ -58,6 +58,9 @@ struct BoundaryResult {
   double blur_sigma_px = 0.0;          // used or estimated
   std::vector<cv::Rect> regions;       // where Canny ran
   int edge_pixels = 0;                 // Canny pixels considered
+  // With restrict_to_part: grey levels of the dark (part) and bright (backlight)
+  // classes and the fraction of saturated samples, for exposure checks.
+  double dark_level = 0, bright_level = 0, saturated_fraction = 0;
 };
 
 // `image`: 8-bit single channel. Throws InputError if empty, not 8-bit grey, or
@@ -76,6 +79,7 @@ struct RowCrossing {
   double step = 0;
   int contour = -1;
   int index = 0;        // chain index of the point before the crossing
+  double raw_x = 0, raw_y = 0;  // the same crossing in the image (interpolated likewise)
 };
 using PointMap = std::function<Eigen::Vector2d(const Eigen::Vector2d&)>;
 std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMap& map = {});

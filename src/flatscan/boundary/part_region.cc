@@ -67,6 +67,9 @@ BoundaryBand FindBoundaryBand(const cv::Mat1b& image) {
     for (int x = 0; x < cols; ++x) ++hist[out[x] = in[x * kReduce + kReduce / 2]];
   }
   const TwoClassSplit split = OtsuSplit(hist);
+  band.dark_mean = split.dark_mean;
+  band.bright_mean = split.bright_mean;
+  band.saturated_fraction = static_cast<double>(hist[255]) / (static_cast<double>(rows) * cols);
   if (split.bright_mean - split.dark_mean < 30.0) return band;  // no part: no real contrast
   const uint8_t level = static_cast<uint8_t>(split.level);
   const int tiles_x = (image.cols + kTile - 1) / kTile, tiles_y = (image.rows + kTile - 1) / kTile;

@@ -15,6 +15,9 @@ namespace flatscan {
 struct BoundaryBand {
   std::vector<cv::Rect> regions;  // disjoint, full resolution
   bool found = false;             // false: no dark/bright separation (no part)
+  // Grey levels of the two classes (Otsu on the sampled image), and the fraction of
+  // samples at 255, for exposure checks.
+  double dark_mean = 0, bright_mean = 0, saturated_fraction = 0;
 };
 
 BoundaryBand FindBoundaryBand(const cv::Mat1b& image);

@@ -1,0 +1,364 @@
+#include "flatscan/inspection/inspect_part.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <Eigen/Dense>
+#include <opencv2/core/eigen.hpp>
+
+#include "flatscan/reconstruction/outlier_filter.h"
+#include "flatscan/reconstruction/rectified_stereo.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+class StageTimer {
+ public:
+  explicit StageTimer(std::vector<std::pair<std::string, double>>* out) : out_(out) {}
+  void Mark(const std::string& stage) {
+    const auto now = std::chrono::steady_clock::now();
+    out_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - last_).count());
+    last_ = now;
+  }
+
+ private:
+  std::vector<std::pair<std::string, double>>* out_;
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// Raw image point <-> rectified point of one camera (exact undistortion).
+struct CameraRectification {
+  const Camera& camera;
+  Eigen::Matrix3d rect_from_cam;
+  double f, cx, cy;
+  CameraRectification(const Camera& cam, const cv::Mat& r, const cv::Mat& p) : camera(cam) {
+    cv::cv2eigen(r, rect_from_cam);
+    f = p.at<double>(0, 0);
+    cx = p.at<double>(0, 2);
+    cy = p.at<double>(1, 2);
+  }
+  Eigen::Vector2d ToRectified(const Eigen::Vector2d& raw) const {
+    const Eigen::Vector2d n = camera.PixelToNormalized(raw);
+    const Eigen::Vector3d x = rect_from_cam * Eigen::Vector3d(n.x(), n.y(), 1.0);
+    return {f * x.x() / x.z() + cx, f * x.y() / x.z() + cy};
+  }
+  Eigen::Vector2d ToRaw(const Eigen::Vector2d& rect) const {
+    const Eigen::Vector3d x = rect_from_cam.transpose() * Eigen::Vector3d((rect.x() - cx) / f, (rect.y() - cy) / f, 1.0);
+    return camera.NormalizedToPixel(Eigen::Vector2d(x.x() / x.z(), x.y() / x.z()));
+  }
+};
+
+double SignedArea(const BoundaryResult& b, const ContourInfo& c) {
+  double area = 0;
+  for (int i = c.begin; i < c.end; ++i) {
+    const EdgePoint& p = b.points[i];
+    const EdgePoint& q = b.points[i + 1 < c.end ? i + 1 : c.begin];
+    area += p.x * q.y - q.x * p.y;
+  }
+  return 0.5 * area;
+}
+
+// A closed contour whose normals (dark -> bright) point away from its centroid
+// encloses dark material: a part's outer boundary (holes have them pointing inward).
+bool EnclosesMaterial(const BoundaryResult& b, const ContourInfo& c) {
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (int i = c.begin; i < c.end; ++i) centroid += Eigen::Vector2d(b.points[i].x, b.points[i].y);
+  centroid /= (c.end - c.begin);
+  double outward = 0;
+  for (int i = c.begin; i < c.end; ++i)
+    outward += (Eigen::Vector2d(b.points[i].x, b.points[i].y) - centroid).dot(Eigen::Vector2d(b.points[i].nx, b.points[i].ny));
+  return outward > 0;
+}
+
+// Checks what the image shows and returns the outer contour of the one part.
+int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::string& name) {
+  if (b.bright_level < 60)
+    ThrowInputError("{}: under-exposed (backlight grey level {:.0f}; expected at least 60): increase exposure or light", name, b.bright_level);
+  if (b.saturated_fraction > 0.25)
+    ThrowInputError("{}: over-exposed ({:.0f}% of the backlight is saturated at 255): reduce exposure so the backlight stays below 255",
+                    name, 100 * b.saturated_fraction);
+  int best = -1, parts = 0;
+  double best_area = 0;
+  std::vector<double> areas(b.contours.size(), 0.0);
+  const double min_area = 1e-4 * image.cols * image.rows;
+  for (size_t c = 0; c < b.contours.size(); ++c) {
+    const ContourInfo& info = b.contours[c];
+    if (!info.closed || !EnclosesMaterial(b, info)) continue;
+    areas[c] = std::abs(SignedArea(b, info));
+    if (areas[c] > best_area) best_area = areas[c], best = static_cast<int>(c);
+  }
+  // Open contours that end at the image border: a part cut by the border.
+  for (const ContourInfo& info : b.contours) {
+    if (info.closed || info.length_px < 50) continue;
+    const EdgePoint& a = b.points[info.begin];
+    const EdgePoint& z = b.points[info.end - 1];
+    auto near_border = [&](const EdgePoint& p) {
+      return p.x < 10 || p.y < 10 || p.x > image.cols - 11 || p.y > image.rows - 11;
+    };
+    if (near_border(a) || near_border(z))
+      ThrowInputError("{}: the part touches the image border: place it fully inside both cameras' views", name);
+  }
+  if (best < 0 || best_area < min_area)
+    ThrowInputError("{}: no part found (expected a dark part on the bright backlight, fully in view)", name);
+  for (size_t c = 0; c < b.contours.size(); ++c)
+    if (areas[c] > 0.1 * best_area) ++parts;
+  if (parts > 1) ThrowInputError("{}: {} parts found: inspect one part at a time", name, parts);
+  return best;
+}
+
+// Heights along the ordered rim, each replaced by a local quadratic in arc length
+// fitted with Gaussian weights (sigma in mm): it averages the noise but, unlike a
+// plain average, does not flatten a smooth peak, so the maximum stays unbiased.
+// `weights` are the points' inverse variances (relative).
+std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& heights,
+                                   const std::vector<double>& weights, double sigma_mm) {
+  const int n = static_cast<int>(points.size());
+  if (sigma_mm <= 0 || n < 5) return heights;
+  std::vector<double> arc(n, 0.0);
+  for (int i = 1; i < n; ++i) arc[i] = arc[i - 1] + (points[i] - points[i - 1]).norm();
+  std::vector<double> out(heights);
+  const double reach = 3 * sigma_mm;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+    int lo = i, hi = i;
+    while (lo > 0 && arc[i] - arc[lo - 1] <= reach) --lo;
+    while (hi + 1 < n && arc[hi + 1] - arc[i] <= reach) ++hi;
+    for (int j = lo; j <= hi; ++j) {
+      const double ds = arc[j] - arc[i];
+      const double w = weights[j] * std::exp(-0.5 * (ds / sigma_mm) * (ds / sigma_mm));
+      const Eigen::Vector3d row(1.0, ds, ds * ds);
+      ata += w * row * row.transpose();
+      atb += w * row * heights[j];
+    }
+    if (hi - lo < 4) continue;
+    const Eigen::Vector3d coef = ata.ldlt().solve(atb);
+    if (coef.allFinite()) out[i] = coef[0];
+  }
+  return out;
+}
+
+// Height of the rim above the support plane as a cubic polynomial in plane
+// coordinates (a thin sheet's warp: bending, twist and low-order terms, plus the
+// rest tilt), fitted by weighted least squares to the measured rim.
+class RimSurfaceModel {
+ public:
+  RimSurfaceModel(const SupportPlane& plane, const std::vector<Eigen::Vector3d>& points,
+                  const std::vector<double>& heights, const std::vector<double>& weights)
+      : plane_(plane) {
+    e1_ = plane.normal.unitOrthogonal();
+    e2_ = plane.normal.cross(e1_);
+    for (const Eigen::Vector3d& p : points) centre_ += p;
+    centre_ /= static_cast<double>(points.size());
+    Eigen::MatrixXd a(points.size(), kTerms);
+    Eigen::VectorXd b(points.size());
+    for (size_t i = 0; i < points.size(); ++i) {
+      const double w = std::sqrt(weights[i]);
+      a.row(i) = w * Basis(points[i]).transpose();
+      b[i] = w * heights[i];
+    }
+    coefficients_ = a.colPivHouseholderQr().solve(b);
+  }
+  double Height(const Eigen::Vector3d& p) const { return Basis(p).dot(coefficients_); }
+  // The bottom-rim point seen at raw left pixel `q` (image normal `n`): the left ray
+  // meets the silhouette edge (the top edge when the camera is on the inner side of
+  // the side face), which lies `thickness` above the bottom rim.
+  Eigen::Vector3d LiftLeftSilhouette(const Camera& left, const Eigen::Vector2d& q, const Eigen::Vector2d& n,
+                                     double thickness) const {
+    const Eigen::Vector2d xy = left.PixelToNormalized(q);
+    const Eigen::Vector2d xy_out = left.PixelToNormalized(q + 0.5 * n);
+    const Eigen::Vector3d d(xy.x(), xy.y(), 1.0), d_out(xy_out.x(), xy_out.y(), 1.0);
+    const Eigen::Vector3d& up = plane_.normal;
+    double h = 0.0;
+    Eigen::Vector3d bottom = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+    for (int iter = 0; iter < 4; ++iter) {
+      const double level = up.dot(plane_.point) + h;
+      const Eigen::Vector3d seen = d * (level / up.dot(d));
+      Eigen::Vector3d outward = d_out * (level / up.dot(d_out)) - seen;
+      outward -= outward.dot(up) * up;
+      const int top = (-seen).dot(outward) > 0 ? 0 : 1;  // camera 1 is at the origin
+      bottom = seen - top * thickness * up;
+      h = Height(bottom) + top * thickness;
+    }
+    return bottom;
+  }
+
+ private:
+  static constexpr int kTerms = 10;
+  Eigen::Matrix<double, kTerms, 1> Basis(const Eigen::Vector3d& p) const {
+    const double x = (p - centre_).dot(e1_) / 10.0, y = (p - centre_).dot(e2_) / 10.0;
+    Eigen::Matrix<double, kTerms, 1> v;
+    v << 1, x, y, x * x, x * y, y * y, x * x * x, x * x * y, x * y * y, y * y * y;
+    return v;
+  }
+  const SupportPlane& plane_;
+  Eigen::Vector3d e1_, e2_, centre_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, kTerms, 1> coefficients_;
+};
+
+}  // namespace
+
+InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, const cv::Mat1b& left,
+                             const cv::Mat1b& right, const InspectionParams& params, const std::string& left_name,
+                             const std::string& right_name) {
+  for (const auto& [image, name, cam] : {std::tuple(&left, &left_name, &rig.left), std::tuple(&right, &right_name, &rig.right)})
+    if (image->cols != cam->width || image->rows != cam->height)
+      ThrowInputError("{}: image is {}x{} but the rig was calibrated for {}x{}: use the images of the calibrated cameras",
+                      *name, image->cols, image->rows, cam->width, cam->height);
+  InspectionResult result;
+  StageTimer timer(&result.timing_ms);
+  const BoundaryResult lb = DetectBoundary(left, params.boundary);
+  timer.Mark("boundary_left");
+  const BoundaryResult rb = DetectBoundary(right, params.boundary);
+  timer.Mark("boundary_right");
+  result.blur_left_px = lb.blur_sigma_px;
+  result.blur_right_px = rb.blur_sigma_px;
+  const int left_part = FindPartContour(lb, left, left_name);
+  const int right_part = FindPartContour(rb, right, right_name);
+  (void)right_part;
+
+  const CameraRectification left_rect(rig.left, rig.rectification.R1, rig.rectification.P1);
+  const CameraRectification right_rect(rig.right, rig.rectification.R2, rig.rectification.P2);
+  const std::vector<RowCrossing> lc = CrossRows(lb, [&](const Eigen::Vector2d& p) { return left_rect.ToRectified(p); });
+  const std::vector<RowCrossing> rc = CrossRows(rb, [&](const Eigen::Vector2d& p) { return right_rect.ToRectified(p); });
+  result.crossings_left = static_cast<int>(lc.size());
+  result.crossings_right = static_cast<int>(rc.size());
+  timer.Mark("rectify_crossings");
+
+  // Disparities a part resting on the plane can have: between the plane and
+  // max_height_mm above it, along the left ray.
+  const RectifiedStereo stereo = RectifiedStereo::FromRig(rig);
+  const Eigen::Vector3d up = stereo.rect1_from_cam1 * plane.normal;
+  const Eigen::Vector3d on_plane = stereo.rect1_from_cam1 * plane.point;
+  auto range = [&](double x, int row) {
+    const Eigen::Vector3d d = stereo.LeftRay(x, row);
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (double h : {-0.5, params.max_height_mm}) {
+      const Eigen::Vector3d p = d * (up.dot(on_plane + h * up) / up.dot(d));
+      const double disparity = stereo.Disparity(p);
+      lo = std::min(lo, disparity), hi = std::max(hi, disparity);
+    }
+    return std::make_pair(lo - 0.5, hi + 0.5);
+  };
+  const std::vector<StereoMatch> matches =
+      MatchCrossings(lc, rc, left, right, [&](const Eigen::Vector2d& p) { return left_rect.ToRaw(p); },
+                     [&](const Eigen::Vector2d& p) { return right_rect.ToRaw(p); }, range, params.matching);
+  result.matched = static_cast<int>(matches.size());
+  timer.Mark("matching");
+  if (matches.empty()) {
+    // Left and right swapped show as disparities of the opposite sign.
+    int negative = 0, total = 0;
+    for (const RowCrossing& a : lc)
+      for (const RowCrossing& b : rc)
+        if (a.row == b.row && (a.nx > 0) == (b.nx > 0)) {
+          const auto [lo, hi] = range(a.x, a.row);
+          ++total;
+          if ((b.x - a.x) >= lo && (b.x - a.x) <= hi) ++negative;
+        }
+    if (total > 0 && negative > total / 10)
+      ThrowInputError("{} and {}: the disparities are negative: the left and right images look swapped", left_name, right_name);
+    ThrowInputError("{} and {}: no boundary point could be matched between the images (expected the same part seen by both "
+                    "cameras of this rig on this support plane): check the rig and plane files", left_name, right_name);
+  }
+
+  // Triangulate, thickness-aware.
+  std::vector<Eigen::Vector3d> cam1;
+  std::vector<InspectedPoint> points;
+  std::vector<double> weight;    // inverse variance: a crossing's x error grows as 1 / |n_x|
+  std::vector<int> chain_index;  // the left crossing's chain index, per point
+  const Eigen::Matrix3d cam1_from_rect1 = stereo.rect1_from_cam1.transpose();
+  for (const StereoMatch& m : matches) {
+    const RowCrossing& a = lc[m.left];
+    const RowCrossing& b = rc[m.right];
+    InspectedPoint p;
+    Eigen::Vector3d rect1;
+    if (params.thickness_correction) {
+      const BottomPoint bp = TriangulateBottomPoint(stereo, a.x, b.x, a.row, Eigen::Vector2d(a.nx, a.ny), up, params.thickness_mm);
+      if (!bp.valid) continue;
+      rect1 = bp.rect1;
+      p.left_edge = bp.left_edge;
+      p.right_edge = bp.right_edge;
+    } else {
+      rect1 = TriangulateRow(stereo, a.x, b.x, a.row);
+      if (!(rect1.z() > 0)) continue;
+    }
+    p.cam1 = cam1_from_rect1 * rect1;
+    p.left_raw = Eigen::Vector2d(a.raw_x, a.raw_y);
+    p.right_raw = Eigen::Vector2d(b.raw_x, b.raw_y);
+    p.outer = a.contour == left_part;
+    p.height_mm = plane.Height(p.cam1);
+    points.push_back(p);
+    cam1.push_back(p.cam1);
+    chain_index.push_back(a.index);
+    weight.push_back(a.nx * a.nx * b.nx * b.nx / (a.nx * a.nx + b.nx * b.nx));
+  }
+  timer.Mark("triangulation");
+  const std::vector<bool> keep = RadiusOutlierFilter(cam1, params.outlier_radius_mm, params.outlier_min_neighbours);
+  timer.Mark("outlier_removal");
+
+  // The rim: valid outer points in chain order (by the left crossing's chain index).
+  std::vector<std::pair<int, int>> chain_order;  // (chain index, index in result.points)
+  std::vector<double> point_weight;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!keep[i]) continue;
+    point_weight.push_back(weight[i]);
+    if (points[i].outer) chain_order.emplace_back(chain_index[i], static_cast<int>(result.points.size()));
+    result.points.push_back(points[i]);
+  }
+  std::sort(chain_order.begin(), chain_order.end());
+  std::vector<Eigen::Vector3d> rim;
+  std::vector<double> rim_heights, rim_weights;
+  for (const auto& [index, i] : chain_order) {
+    rim.push_back(result.points[i].cam1);
+    rim_heights.push_back(result.points[i].height_mm);
+    rim_weights.push_back(point_weight[i]);
+  }
+  result.valid = static_cast<int>(result.points.size());
+  if (rim.size() < 10)
+    ThrowInputError("{} and {}: only {} valid points on the part's outline (expected at least 10): check focus, "
+                    "exposure and calibration", left_name, right_name, rim.size());
+  const std::vector<double> smoothed = SmoothAlongRim(rim, rim_heights, rim_weights, params.height_smoothing_mm);
+  for (size_t j = 0; j < chain_order.size(); ++j) result.points[chain_order[j].second].height_mm = smoothed[j];
+
+  // Coverage: outer-boundary chain segments with a valid point within 2 segments.
+  const ContourInfo& outer = lb.contours[left_part];
+  const int n = outer.end - outer.begin;
+  std::vector<char> has_point(n, 0);
+  for (const auto& [index, i] : chain_order)
+    for (int k = -2; k <= 2; ++k) has_point[((index + k) % n + n) % n] = 1;
+  double covered = 0, total = 0;
+  for (int i = 0; i < n; ++i) {
+    const EdgePoint& p = lb.points[outer.begin + i];
+    const EdgePoint& q = lb.points[outer.begin + (i + 1) % n];
+    const double len = std::hypot(q.x - p.x, q.y - p.y);
+    total += len;
+    if (has_point[i]) covered += len;
+  }
+  result.coverage = total > 0 ? covered / total : 0.0;
+
+  // Stretches the two cameras cannot measure (boundary along the epipolar rows) are
+  // completed from the part's low-order warp fitted to the measured rim.
+  std::vector<Eigen::Vector3d> rim_all = rim;
+  std::vector<double> heights_all = smoothed;
+  if (params.complete_unmeasured && result.coverage < 1.0) {
+    const RimSurfaceModel model(plane, rim, smoothed, rim_weights);
+    for (int i = 0; i < n; ++i) {
+      if (has_point[i]) continue;
+      const EdgePoint& e = lb.points[outer.begin + i];
+      const Eigen::Vector3d bottom = model.LiftLeftSilhouette(rig.left, Eigen::Vector2d(e.x, e.y), Eigen::Vector2d(e.nx, e.ny),
+                                                               params.thickness_correction ? params.thickness_mm : 0.0);
+      if (!bottom.allFinite()) continue;
+      rim_all.push_back(bottom);
+      heights_all.push_back(model.Height(bottom));
+      ++result.completed;
+    }
+  }
+  result.values = ComputeFlatness(rim_all, heights_all);
+  result.pass = result.values.flatness_mm <= params.tolerance_mm;
+  timer.Mark("flatness");
+  return result;
+}
+
+}  // namespace flatscan
