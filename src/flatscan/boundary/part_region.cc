@@ -18,6 +18,7 @@ TwoClassSplit OtsuSplit(const std::array<int, 256>& hist) {
   double total = 0, sum = 0;
   for (int i = 0; i < 256; ++i) total += hist[i], sum += i * static_cast<double>(hist[i]);
   TwoClassSplit best;
+  best.dark_mean = best.bright_mean = total > 0 ? sum / total : 0.0;  // one class: no split
   double best_between = -1, w0 = 0, sum0 = 0;
   for (int t = 0; t < 255; ++t) {
     w0 += hist[t];

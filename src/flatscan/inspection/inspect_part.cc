@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <cmath>
 
 #include <Eigen/Dense>
@@ -198,6 +199,43 @@ class RimSurfaceModel {
   Eigen::Matrix<double, kTerms, 1> coefficients_;
 };
 
+// The part's outline enters each row at its leftmost crossing in both images; the
+// disparity there must be the support plane's plus at most a few mm of height. With
+// the images swapped it comes out near the negative of the expected one.
+template <typename Range>
+void CheckDisparitySign(const std::vector<RowCrossing>& lc, const std::vector<RowCrossing>& rc, int left_part,
+                        int right_part, const Range& range, const std::string& left_name, const std::string& right_name) {
+  std::map<int, double> first_left, first_right;
+  for (const RowCrossing& a : lc)
+    if (a.contour == left_part && (!first_left.count(a.row) || a.x < first_left[a.row])) first_left[a.row] = a.x;
+  for (const RowCrossing& b : rc)
+    if (b.contour == right_part && (!first_right.count(b.row) || b.x < first_right[b.row])) first_right[b.row] = b.x;
+  std::vector<double> offsets;  // observed minus expected disparity, in units of the allowed range
+  for (const auto& [row, xl] : first_left) {
+    const auto it = first_right.find(row);
+    if (it == first_right.end()) continue;
+    const auto [lo, hi] = range(xl, row);
+    offsets.push_back(((xl - it->second) - lo) / std::max(hi - lo, 1.0));
+  }
+  // Rows are epipolar lines: the outline's first and last rows are the same in both
+  // rectified images (its extreme points lie on tangent epipolar planes).
+  if (!first_left.empty() && !first_right.empty()) {
+    const int top = std::abs(first_left.begin()->first - first_right.begin()->first);
+    const int bottom = std::abs(first_left.rbegin()->first - first_right.rbegin()->first);
+    if (getenv("DEBUG_SWAP")) fprintf(stderr, "rows %d %d\n", top, bottom);
+    if (std::max(top, bottom) > 3)
+      ThrowInputError("{} and {}: the part's outline spans different rows in the two rectified views ({} px apart): the "
+                      "images do not fit the rig: check that left and right are not swapped and that the rig file "
+                      "belongs to these cameras", left_name, right_name, std::max(top, bottom));
+  }
+  if (offsets.size() < 10) return;
+  std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
+  const double median = offsets[offsets.size() / 2];
+  if (getenv("DEBUG_SWAP")) fprintf(stderr, "median offset %.3f\n", median);
+  if (median < -1.0)
+    ThrowInputError("{} and {}: the disparities are negative: the left and right images look swapped", left_name, right_name);
+}
+
 }  // namespace
 
 InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, const cv::Mat1b& left,
@@ -217,7 +255,6 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   result.blur_right_px = rb.blur_sigma_px;
   const int left_part = FindPartContour(lb, left, left_name);
   const int right_part = FindPartContour(rb, right, right_name);
-  (void)right_part;
 
   const CameraRectification left_rect(rig.left, rig.rectification.R1, rig.rectification.P1);
   const CameraRectification right_rect(rig.right, rig.rectification.R2, rig.rectification.P2);
@@ -242,6 +279,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     }
     return std::make_pair(lo - 0.5, hi + 0.5);
   };
+  CheckDisparitySign(lc, rc, left_part, right_part, range, left_name, right_name);
   const std::vector<StereoMatch> matches =
       MatchCrossings(lc, rc, left, right, [&](const Eigen::Vector2d& p) { return left_rect.ToRaw(p); },
                      [&](const Eigen::Vector2d& p) { return right_rect.ToRaw(p); }, range, params.matching);
@@ -320,7 +358,12 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     ThrowInputError("{} and {}: only {} valid points on the part's outline (expected at least 10): check focus, "
                     "exposure and calibration", left_name, right_name, rim.size());
   const std::vector<double> smoothed = SmoothAlongRim(rim, rim_heights, rim_weights, params.height_smoothing_mm);
-  for (size_t j = 0; j < chain_order.size(); ++j) result.points[chain_order[j].second].height_mm = smoothed[j];
+  for (size_t j = 0; j < chain_order.size(); ++j) {
+    // The smoothed rim: each point moved along the plane normal to its smoothed height,
+    // so the zone widths (lsq_pv, minzone) see the same rim as flatness_mm.
+    rim[j] += (smoothed[j] - rim_heights[j]) * plane.normal;
+    result.points[chain_order[j].second].height_mm = smoothed[j];
+  }
 
   // Coverage: outer-boundary chain segments with a valid point within 2 segments.
   const ContourInfo& outer = lb.contours[left_part];

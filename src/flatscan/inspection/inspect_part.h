@@ -29,7 +29,7 @@ struct InspectionParams {
   // Heights along the rim are smoothed by a local quadratic with Gaussian weights of
   // this sigma (arc length, mm) before the maximum is taken, so that the maximum is
   // the part's and not the noise's.
-  double height_smoothing_mm = 0.3;
+  double height_smoothing_mm = 0.15;
   // Complete the outline where the cameras cannot measure it (boundary along the
   // epipolar rows) from a cubic warp surface fitted to the measured rim.
   bool complete_unmeasured = true;
