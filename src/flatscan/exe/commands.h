@@ -21,11 +21,23 @@ class Command {
 
 std::unique_ptr<Command> MakeSimulateCommand();
 std::unique_ptr<Command> MakeDemoCommand();
+std::unique_ptr<Command> MakeInspectCommand();
+std::unique_ptr<Command> MakeEdgesCommand();
+std::unique_ptr<Command> MakeEvaluateEdgesCommand();
+std::unique_ptr<Command> MakeCalibrateRigCommand();
+std::unique_ptr<Command> MakeImportRigCommand();
+std::unique_ptr<Command> MakeCalibratePlaneCommand();
 
 inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   std::vector<std::unique_ptr<Command>> out;
   out.push_back(MakeDemoCommand());
   out.push_back(MakeSimulateCommand());
+  out.push_back(MakeInspectCommand());
+  out.push_back(MakeEdgesCommand());
+  out.push_back(MakeEvaluateEdgesCommand());
+  out.push_back(MakeCalibrateRigCommand());
+  out.push_back(MakeImportRigCommand());
+  out.push_back(MakeCalibratePlaneCommand());
   return out;
 }
 

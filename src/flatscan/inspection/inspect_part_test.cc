@@ -3,53 +3,154 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/dataset.h"
+#include "flatscan/util/error.h"
+#include "flatscan/util/test_util.h"
 
 namespace flatscan {
 namespace {
 
-struct TrialError {
-  double truth = 0, measured = 0, coverage = 0;
+struct RenderedPart {
+  SimulatedPart part;
+  cv::Mat1b left, right;
 };
 
-// Renders `count` random parts on the station and inspects them with the true rig
-// and plane.
-std::vector<TrialError> RunTrials(const SceneConfig& scene, int count, uint64_t seed, bool correction) {
-  const Station st = BuildStation(scene);
-  Random rng(seed);
-  std::vector<TrialError> out;
-  for (int i = 0; i < count; ++i) {
-    const SimulatedPart part = SampleSimulatedPart(st, i, rng);
-    const PartTruth& truth = part.shots[0].truth;
-    const cv::Mat1b l = RenderPartImage(st, 0, part.geometry, truth.support_from_part, seed * 100 + 2 * i, false);
-    const cv::Mat1b r = RenderPartImage(st, 1, part.geometry, truth.support_from_part, seed * 100 + 2 * i + 1, false);
-    InspectionParams params;
-    params.thickness_mm = part.geometry.SideHeight();
-    params.thickness_correction = correction;
-    const InspectionResult res = InspectPart(st.rig, st.plane, l, r, params);
-    out.push_back({truth.flatness_mm, res.values.flatness_mm, res.coverage});
-    if (getenv("VERBOSE"))
-      printf("rot %.1f holes %zu notches %zu crossings %d/%d matched %d valid %d\n", part.shots[0].rotation_deg,
-             part.geometry.holes.size(), part.geometry.notches.size(), res.crossings_left, res.crossings_right, res.matched, res.valid);
-  }
-  return out;
+RenderedPart Render(const Station& st, int id, Random& rng, uint64_t seed) {
+  RenderedPart r;
+  r.part = SampleSimulatedPart(st, id, rng);
+  const Rigid3d& pose = r.part.shots[0].truth.support_from_part;
+  r.left = RenderPartImage(st, 0, r.part.geometry, pose, seed, false);
+  r.right = RenderPartImage(st, 1, r.part.geometry, pose, seed + 1, false);
+  return r;
 }
 
-TEST(InspectPart, DISABLED_Explore) {
-  const int n = getenv("N") ? atoi(getenv("N")) : 8;
-  for (bool correction : {true, false}) {
-    auto trials = RunTrials(ScenePreset("paper"), n, 11, correction);
-    std::vector<double> errs;
-    for (const auto& t : trials) {
-      printf("truth %.4f measured %.4f err %+.4f coverage %.3f\n", t.truth, t.measured, t.measured - t.truth, t.coverage);
-      errs.push_back(std::abs(t.measured - t.truth));
-    }
-    std::sort(errs.begin(), errs.end());
-    printf("correction %d median %.4f p95 %.4f\n", correction, errs[errs.size() / 2], errs[errs.size() * 95 / 100]);
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
   }
+  return "(no error)";
+}
+
+// Accuracy with the true rig and plane on a fixed-seed subset (the full study with
+// calibrated rig and plane is `flatscan evaluate`).
+TEST(InspectPart, FlatnessWithinMicronsAndThicknessCorrectionMatters) {
+  const Station st = BuildStation(ScenePreset("paper"));
+  Random rng(11);
+  std::vector<double> errors, uncorrected;
+  for (int i = 0; i < 6; ++i) {
+    const RenderedPart rp = Render(st, i, rng, 1100 + 2 * i);
+    InspectionParams params;
+    params.thickness_mm = rp.part.geometry.SideHeight();
+    const InspectionResult res = InspectPart(st.rig, st.plane, rp.left, rp.right, params);
+    const double truth = rp.part.shots[0].truth.flatness_mm;
+    errors.push_back(std::abs(res.values.flatness_mm - truth));
+    EXPECT_NEAR(res.values.minzone_mm, rp.part.shots[0].truth.minzone_mm, 0.015);
+    EXPECT_EQ(res.pass, res.values.flatness_mm <= params.tolerance_mm);
+    params.thickness_correction = false;
+    uncorrected.push_back(std::abs(InspectPart(st.rig, st.plane, rp.left, rp.right, params).values.flatness_mm - truth));
+  }
+  std::sort(errors.begin(), errors.end());
+  std::sort(uncorrected.begin(), uncorrected.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.003);
+  EXPECT_LT(errors.back(), 0.008);
+  EXPECT_GT(uncorrected[uncorrected.size() / 2], 0.05);  // a fraction of the 0.1-0.3 mm thickness
+}
+
+TEST(InspectPart, UnmeasurablePairsSayWhy) {
+  const Station st = BuildStation(ScenePreset("paper"));
+  Random rng(5);
+  const RenderedPart rp = Render(st, 0, rng, 77);
+  InspectionParams params;
+  params.thickness_mm = rp.part.geometry.SideHeight();
+  auto inspect = [&](const cv::Mat1b& l, const cv::Mat1b& r) {
+    return ErrorOf([&] { InspectPart(st.rig, st.plane, l, r, params, "L.png", "R.png"); });
+  };
+  const cv::Mat1b empty = RenderMarkerImage(st, 0, 3);  // backlight and markers, no part
+  cv::Mat1b backlight(rp.left.size(), uint8_t(215));
+  EXPECT_EQ(inspect(backlight, rp.right), "L.png: no part found (expected a dark part on the bright backlight, fully in view)");
+  EXPECT_EQ(inspect(rp.right, rp.left),
+            "L.png and R.png: the part's outline spans different rows in the two rectified views (23 px apart): the "
+            "images do not fit the rig: check that left and right are not swapped and that the rig file belongs to "
+            "these cameras");
+  cv::Mat1b dark = rp.left * 0.2;
+  EXPECT_EQ(inspect(dark, rp.right).rfind("L.png: under-exposed", 0), 0u);
+  cv::Mat1b bright = rp.left * 3.0;
+  EXPECT_EQ(inspect(bright, rp.right).rfind("L.png: over-exposed", 0), 0u);
+  cv::Mat1b small;
+  cv::resize(rp.left, small, cv::Size(1296, 972));
+  EXPECT_EQ(inspect(small, rp.right),
+            "L.png: image is 1296x972 but the rig was calibrated for 2592x1944: use the images of the calibrated cameras");
+  // Two small parts side by side.
+  PartGeometry small_part;
+  small_part.half_width = 4.0;
+  small_part.half_height = 3.0;
+  cv::Mat1b two = cv::min(
+      RenderPartImage(st, 0, small_part, RestAndPlacePart(small_part, 10.0, {-9.0, 0.0}).support_from_part, 81, false),
+      RenderPartImage(st, 0, small_part, RestAndPlacePart(small_part, 30.0, {9.0, 0.0}).support_from_part, 82, false));
+  EXPECT_EQ(inspect(two, rp.right), "L.png: 2 parts found: inspect one part at a time");
+  // A part cut by the image border: shift the image content.
+  cv::Mat1b shifted(rp.left.size(), uint8_t(215));
+  const Eigen::Vector3d centre = st.CamFromSupport(0) * rp.part.shots[0].truth.support_from_part.translation;
+  const Eigen::Vector2d c = st.GetCamera(0).Project(centre);
+  const int dx = static_cast<int>(c.x());  // moves the part's centre to the left border
+  rp.left(cv::Rect(dx, 0, rp.left.cols - dx, rp.left.rows)).copyTo(shifted(cv::Rect(0, 0, rp.left.cols - dx, rp.left.rows)));
+  EXPECT_EQ(inspect(shifted, rp.right), "L.png: the part touches the image border: place it fully inside both cameras' views");
+}
+
+TEST(InspectCommand, ExitCodesJsonAndBatch) {
+  testing::ScratchDir dir("inspect-cli");
+  const std::string data = (dir.path() / "data").string();
+  auto sim = testing::RunFlatscan("simulate --preset paper --parts 2 --no-calibration --no-markers --seed 3 -q -o " + data);
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const auto truth = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "data/truth.json"));
+  const double t = truth["parts"][0]["thickness_mm"].get<double>();
+  const double flat = truth["parts"][0]["flatness_mm"].get<double>();
+  const std::string common = fmt::format("inspect --rig {0}/rig.yml --plane {0}/plane_true.yml --thickness {1} ", data, t);
+  const std::string pair0 = fmt::format("--left {0}/parts/part_000_left.png --right {0}/parts/part_000_right.png ", data);
+  // Pass and fail around the measured flatness.
+  auto r = testing::RunFlatscan(common + pair0 + fmt::format("--tolerance {} --json {}/out.json", flat + 0.02, data));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "data/out.json"));
+  EXPECT_EQ(j["verdict"], "pass");
+  EXPECT_NEAR(j["flatness_mm"].get<double>(), flat, 0.008);
+  for (const char* key : {"lsq_pv_mm", "minzone_mm", "tolerance_mm", "thickness_mm", "coverage", "timing_ms", "points"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["inputs"]["rig_sha256"].get<std::string>().size(), 64u);
+  r = testing::RunFlatscan(common + pair0 + fmt::format("--tolerance {} --ply {}/out.ply", flat - 0.02, data));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(testing::ReadFileBytes(dir.path() / "data/out.ply").rfind("ply\nformat ascii 1.0\n", 0), 0u);
+  // Bad input: exit 2 and no result file.
+  r = testing::RunFlatscan(common + fmt::format("--left {0}/missing.png --right {0}/parts/part_000_right.png --tolerance 0.1 --json {0}/bad.json", data));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(data + "/missing.png: no such file"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "data/bad.json"));
+  // Batch: goes on past a pair that cannot be measured, no verdict for it.
+  std::ofstream(dir.path() / "data/batch.csv") << "id,left,right\n"
+                                               << "a,parts/part_000_left.png,parts/part_000_right.png\n"
+                                               << "broken,parts/part_000_left.png,parts/nothing.png\n"
+                                               << "b,parts/part_001_left.png,parts/part_001_right.png\n";
+  r = testing::RunFlatscan(common + fmt::format("--pairs {0}/batch.csv --tolerance 1.0 --json {0}/batch.jsonl", data));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  std::stringstream lines(testing::ReadFileBytes(dir.path() / "data/batch.jsonl"));
+  std::vector<nlohmann::json> records;
+  for (std::string line; std::getline(lines, line);) records.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(records.size(), 4u);
+  EXPECT_EQ(records[0]["verdict"], "pass");
+  EXPECT_FALSE(records[1]["measured"].get<bool>());
+  EXPECT_TRUE(records[1]["verdict"].is_null());
+  EXPECT_EQ(records[2]["verdict"], "pass");
+  EXPECT_EQ(records[3]["not_measured"], 1);
 }
 
 }  // namespace

@@ -1,0 +1,85 @@
+// Inspection speed on one paper-preset part pair (2 x 2592 x 1944), one thread, from
+// decoded images, per stage; PNG decoding apart; and OpenCV's StereoSGBM (3-way) on
+// the rectified pair (rectification remap apart) for the ratio.
+//   build/inspect_bench --benchmark_counters_tabular=true
+#include <benchmark/benchmark.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <tbb/global_control.h>
+
+#include "flatscan/inspection/inspect_part.h"
+#include "flatscan/simulation/dataset.h"
+
+namespace flatscan {
+namespace {
+
+struct PaperPair {
+  Station station = BuildStation(ScenePreset("paper"));
+  SimulatedPart part;
+  cv::Mat1b left, right;
+  PaperPair() {
+    Random rng(7);
+    part = SampleSimulatedPart(station, 0, rng);
+    left = RenderPartImage(station, 0, part.geometry, part.shots[0].truth.support_from_part, 1, false);
+    right = RenderPartImage(station, 1, part.geometry, part.shots[0].truth.support_from_part, 2, false);
+  }
+};
+
+const PaperPair& Pair() {
+  static const PaperPair pair;
+  return pair;
+}
+
+void BM_InspectPaperPair(benchmark::State& state) {
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  cv::setNumThreads(1);
+  const PaperPair& p = Pair();
+  InspectionParams params;
+  params.thickness_mm = p.part.geometry.SideHeight();
+  std::map<std::string, double> stages;
+  for (auto _ : state) {
+    const InspectionResult r = InspectPart(p.station.rig, p.station.plane, p.left, p.right, params);
+    for (const auto& [stage, ms] : r.timing_ms) stages[stage] += ms;
+  }
+  for (const auto& [stage, ms] : stages) state.counters[stage + "_ms"] = ms / state.iterations();
+}
+BENCHMARK(BM_InspectPaperPair)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_DecodePngPair(benchmark::State& state) {
+  cv::setNumThreads(1);
+  std::vector<uchar> l, r;
+  cv::imencode(".png", Pair().left, l);
+  cv::imencode(".png", Pair().right, r);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(cv::imdecode(l, cv::IMREAD_GRAYSCALE).data);
+    benchmark::DoNotOptimize(cv::imdecode(r, cv::IMREAD_GRAYSCALE).data);
+  }
+}
+BENCHMARK(BM_DecodePngPair)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_StereoSgbm3WayRectifiedPair(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const PaperPair& p = Pair();
+  const StereoRig& rig = p.station.rig;
+  const cv::Size size(rig.left.width, rig.left.height);
+  cv::Mat m1x, m1y, m2x, m2y, l, r, disparity;
+  cv::initUndistortRectifyMap(rig.left.CameraMatrix(), rig.left.DistortionVector(), rig.rectification.R1,
+                              rig.rectification.P1, size, CV_32FC1, m1x, m1y);
+  cv::initUndistortRectifyMap(rig.right.CameraMatrix(), rig.right.DistortionVector(), rig.rectification.R2,
+                              rig.rectification.P2, size, CV_32FC1, m2x, m2y);
+  cv::remap(p.left, l, m1x, m1y, cv::INTER_LINEAR);
+  cv::remap(p.right, r, m2x, m2y, cv::INTER_LINEAR);
+  // Disparities of the part at the working distance span about 0..160 px here.
+  auto sgbm = cv::StereoSGBM::create(0, 256, 5, 8 * 25, 32 * 25, 1, 0, 10, 100, 1, cv::StereoSGBM::MODE_SGBM_3WAY);
+  for (auto _ : state) {
+    sgbm->compute(l, r, disparity);
+    benchmark::DoNotOptimize(disparity.data);
+  }
+}
+BENCHMARK(BM_StereoSgbm3WayRectifiedPair)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
+
+}  // namespace
+}  // namespace flatscan
+
+BENCHMARK_MAIN();

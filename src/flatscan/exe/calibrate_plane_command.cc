@@ -1,0 +1,183 @@
+// `flatscan calibrate-plane`: the support plane from one backlit image pair of the
+// concentric-ring markers (support_plane/plane_calibration.h).
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
+
+#include "flatscan/exe/commands.h"
+#include "flatscan/io/atomic_output.h"
+#include "flatscan/io/rig_file.h"
+#include "flatscan/support_plane/plane_calibration.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// `path` as 8-bit grey: colour is converted (with a warning), 16-bit is scaled so its
+// maximum becomes 255 (with a warning).
+cv::Mat1b ReadMarkerImage(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) ThrowInputError("{}: no such file", path);
+  if (std::filesystem::is_directory(path, ec)) ThrowInputError("{}: is a folder, not an image", path);
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty())
+    ThrowInputError("{}: cannot read image (expected an 8-bit grey PNG, JPEG, BMP, TIFF or PGM file)", path);
+  if (image.depth() != CV_8U && image.depth() != CV_16U)
+    ThrowInputError("{}: image of OpenCV depth {} not supported (expected 8-bit grey; 16-bit is converted)", path,
+                    image.depth());
+  if (image.channels() == 3 || image.channels() == 4) {
+    cv::Mat grey;
+    cv::cvtColor(image, grey, image.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+    image = grey;
+    spdlog::warn("{}: colour image converted to grey", path);
+  } else if (image.channels() != 1) {
+    ThrowInputError("{}: image with {} channels not supported (expected 8-bit grey)", path, image.channels());
+  }
+  if (image.depth() == CV_16U) {
+    double max_value = 0;
+    cv::minMaxLoc(image, nullptr, &max_value);
+    const double scale = max_value > 255 ? 255.0 / max_value : 1.0;
+    cv::Mat converted;
+    image.convertTo(converted, CV_8U, scale);
+    image = converted;
+    spdlog::warn("{}: 16-bit image converted to 8 bits (grey x {:.4g})", path, scale);
+  }
+  return image;
+}
+
+nlohmann::json Json(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
+nlohmann::json Json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+nlohmann::json FitJson(const SupportPlaneFit& fit) {
+  return {{"normal", Json(fit.normal)},
+          {"point", Json(fit.point)},
+          {"residuals_mm", fit.residuals_mm},
+          {"rms_mm", fit.RmsMm()}};
+}
+
+nlohmann::json MarkerSideJson(const RingMarker& m, int index) {
+  return {{"index", index},
+          {"centre_px", Json(m.centre_px)},
+          {"naive_centre_px", Json(m.naive_centre_px)},
+          {"centre_shift_px", m.CentreShiftPx()},
+          {"outer_axes_px", {m.outer.ellipse.a, m.outer.ellipse.b}},
+          {"inner_axes_px", {m.inner.ellipse.a, m.inner.ellipse.b}},
+          {"outer_fit_rms_px", m.outer.rms_px},
+          {"inner_fit_rms_px", m.inner.rms_px},
+          {"radius_ratio", m.radius_ratio}};
+}
+
+nlohmann::json RejectedJson(const MarkerDetection& d) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RejectedContour& r : d.rejected) out.push_back({{"at_px", Json(r.centroid_px)}, {"reason", r.reason}});
+  return out;
+}
+
+class CalibratePlaneCommand : public Command {
+ public:
+  void Register(CLI::App& app) override {
+    sub_ = app.add_subcommand(
+        "calibrate-plane",
+        "Calibrate the support plane (backlight) from one image pair of the 4 concentric-ring markers: ellipses on "
+        "both ring edges, the image of each ring's true centre from the two conics, stereo triangulation, and the "
+        "plane by least squares (the paper's V r = 1 and total least squares; the TLS plane is written).");
+    sub_->footer(
+        "Example: flatscan calibrate-plane --rig rig.yml --left markers/left.png --right markers/right.png "
+        "-o plane.yml --json plane-report.json");
+    sub_->add_option("--rig", rig_, "rig file (OpenCV YAML: M1 D1 M2 D2 R T, image_width, image_height)")
+        ->required();
+    sub_->add_option("--left", left_, "marker image of the left camera (camera 1)")->required();
+    sub_->add_option("--right", right_, "marker image of the right camera (camera 2)")->required();
+    sub_->add_option("-o,--output", output_, "plane file to write (OpenCV YAML: normal, point, markers, residuals)")
+        ->required();
+    sub_->add_option("--json", json_, "also write a JSON report (fits, residuals, per-marker centres and shifts)");
+    sub_->add_flag("--no-center-correction", no_correction_,
+                   "use the outer ellipses' centres instead of the two-conic image of the ring centre (to measure "
+                   "the perspective bias the correction removes)");
+  }
+
+  int Run() override {
+    const auto start = std::chrono::steady_clock::now();
+    const StereoRig rig = ReadRigFile(rig_);
+    const cv::Mat1b left = ReadMarkerImage(left_);
+    const cv::Mat1b right = ReadMarkerImage(right_);
+    PlaneCalibrationOptions options;
+    options.centre_correction = !no_correction_;
+    options.left_name = left_;
+    options.right_name = right_;
+    const PlaneCalibration cal = CalibratePlane(rig, left, right, options);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    for (const std::string& w : cal.warnings) spdlog::warn("{}", w);
+
+    nlohmann::json markers = nlohmann::json::array();
+    for (const MatchedMarker& m : cal.matched) {
+      markers.push_back({{"position_mm", Json(m.position)},
+                         {"residual_mm", m.residual_mm},
+                         {"epipolar_px", m.epipolar_px},
+                         {"reprojection_px", m.reprojection_px},
+                         {"left", MarkerSideJson(cal.left.markers[m.left], m.left)},
+                         {"right", MarkerSideJson(cal.right.markers[m.right], m.right)}});
+    }
+    nlohmann::json paper = FitJson(cal.paper);
+    paper["r"] = Json(cal.paper_r);
+    const nlohmann::json report = {
+        {"normal", Json(cal.plane.normal)},
+        {"point", Json(cal.plane.point)},
+        {"residuals_mm", cal.plane.residuals_mm},
+        {"markers_found", {{"left", cal.left.markers.size()}, {"right", cal.right.markers.size()}}},
+        {"markers_matched", cal.matched.size()},
+        {"centre_correction", cal.centre_correction},
+        {"plane_fit", "tls"},
+        {"tls_fit", FitJson(cal.tls)},
+        {"paper_fit", paper},
+        {"normals_angle_deg", cal.normals_angle_deg},
+        {"markers", markers},
+        {"rejected_outlines", {{"left", RejectedJson(cal.left)}, {"right", RejectedJson(cal.right)}}},
+        {"warnings", cal.warnings},
+        {"frame", "camera 1 (left), mm; pixels: raw image coordinates, pixel centres at integers"},
+        {"rig", rig_},
+        {"left", left_},
+        {"right", right_},
+        {"plane_file", output_},
+        {"time_ms", ms},
+    };
+
+    WritePlaneFile(output_, cal.plane);
+    if (!json_.empty()) WriteTextFileAtomically(json_, report.dump(2) + "\n");
+
+    std::cout << fmt::format("plane: normal ({:.6f}, {:.6f}, {:.6f}), point ({:.4f}, {:.4f}, {:.4f}) mm\n",
+                             cal.plane.normal.x(), cal.plane.normal.y(), cal.plane.normal.z(), cal.plane.point.x(),
+                             cal.plane.point.y(), cal.plane.point.z());
+    std::cout << fmt::format("markers: {} found left, {} found right, {} matched; TLS residual RMS {:.4f} mm; "
+                             "V r = 1 normal differs by {:.5f} deg\n",
+                             cal.left.markers.size(), cal.right.markers.size(), cal.matched.size(), cal.tls.RmsMm(),
+                             cal.normals_angle_deg);
+    std::cout << fmt::format("centre correction {}\n", cal.centre_correction ? "on (two-conic)" : "OFF (outer ellipse centres)");
+    std::cout << "  #  left centre px        right centre px       shift L/R px   epipolar px  residual mm\n";
+    for (size_t k = 0; k < cal.matched.size(); ++k) {
+      const MatchedMarker& m = cal.matched[k];
+      std::cout << fmt::format("  {}  ({:8.3f}, {:8.3f})  ({:8.3f}, {:8.3f})  {:.3f} / {:.3f}  {:11.4f}  {:+.5f}\n", k,
+                               m.left_centre_px.x(), m.left_centre_px.y(), m.right_centre_px.x(),
+                               m.right_centre_px.y(), m.left_shift_px, m.right_shift_px, m.epipolar_px,
+                               m.residual_mm);
+    }
+    std::cout << fmt::format("wrote {}{} in {:.0f} ms\n", output_, json_.empty() ? "" : " and " + json_, ms);
+    return 0;
+  }
+
+ private:
+  std::string rig_, left_, right_, output_, json_;
+  bool no_correction_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeCalibratePlaneCommand() { return std::make_unique<CalibratePlaneCommand>(); }
+
+}  // namespace flatscan

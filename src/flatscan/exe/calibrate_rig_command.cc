@@ -1,0 +1,150 @@
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "flatscan/calibration/rig_calibration.h"
+#include "flatscan/exe/commands.h"
+#include "flatscan/io/atomic_output.h"
+#include "flatscan/io/rig_file.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// "9x6" -> (9, 6); nullopt unless it is two positive integers (at most 100000) around
+// an x. (Hand-parsed: std::regex draws false -Wmaybe-uninitialized warnings from GCC 12
+// under the sanitizers.)
+std::optional<std::pair<int, int>> ParseTwoIntegers(const std::string& text) {
+  const auto number = [](std::string s) -> std::optional<int> {
+    const size_t first = s.find_first_not_of(" \t"), last = s.find_last_not_of(" \t");
+    if (first == std::string::npos) return std::nullopt;
+    s = s.substr(first, last - first + 1);
+    if (s.empty() || s.size() > 6 || s.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
+    const int value = std::stoi(s);
+    if (value <= 0 || value > 100000) return std::nullopt;
+    return value;
+  };
+  const size_t x = text.find_first_of("xX");
+  if (x == std::string::npos) return std::nullopt;
+  const std::optional<int> a = number(text.substr(0, x)), b = number(text.substr(x + 1));
+  if (!a || !b) return std::nullopt;
+  return std::pair<int, int>(*a, *b);
+}
+
+// `option` names the flag in the message.
+std::pair<int, int> ParseTimes(const std::string& text, const std::string& option, const std::string& meaning) {
+  const std::optional<std::pair<int, int>> parsed = ParseTwoIntegers(text);
+  if (!parsed) ThrowInputError("{} '{}': expected {} as two positive integers such as 9x6", option, text, meaning);
+  return *parsed;
+}
+
+// Fails early (before minutes of work) when the output's folder does not exist.
+void CheckOutputFolder(const std::filesystem::path& path, const std::string& option) {
+  const std::filesystem::path parent = path.has_parent_path() ? path.parent_path() : ".";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(parent, ec))
+    ThrowInputError("{} '{}': the folder '{}' does not exist", option, path.string(), parent.string());
+}
+
+std::string FileName(const std::string& path) { return std::filesystem::path(path).filename().string(); }
+
+class CalibrateRigCommand : public Command {
+ public:
+  void Register(CLI::App& app) override {
+    sub_ = app.add_subcommand(
+        "calibrate-rig",
+        "Calibrate the stereo rig from chessboard image pairs (paired by sorted file name) and write the rig file "
+        "with its rectification.");
+    sub_->footer(
+        "Example: flatscan calibrate-rig --left 'calib/left_*.png' --right 'calib/right_*.png' --board 9x6 "
+        "--square 2.5 -o rig.yml --json rig-report.json\n"
+        "Quote the patterns so that flatscan expands them (unquoted, the shell's expansion is accepted too).");
+    sub_->add_option("--left", left_, "left images: file names or patterns (*, ?, [..])")->required()->expected(1, -1);
+    sub_->add_option("--right", right_, "right images: file names or patterns")->required()->expected(1, -1);
+    sub_->add_option("--board", board_, "inner corners of the chessboard, columns x rows (OpenCV's count), e.g. 9x6")
+        ->required();
+    sub_->add_option("--square", square_mm_, "side of a chessboard square in mm")->required();
+    sub_->add_option("-o,--output", output_, "rig file to write (OpenCV FileStorage YAML)")->required();
+    sub_->add_option("--json", json_, "also write a JSON report (errors per pair, rejected pairs and why)");
+    sub_->add_option("--model", model_,
+                     "distortion model: standard (k1 k2 p1 p2 k3) or rational (adds k4 k5 k6, for wide-angle lenses)")
+        ->default_val("standard");
+  }
+
+  int Run() override {
+    RigCalibrationOptions options;
+    const auto [columns, rows] = ParseTimes(board_, "--board", "the chessboard's inner corners (columns x rows)");
+    options.board.columns = columns;
+    options.board.rows = rows;
+    if (!(square_mm_ > 0)) ThrowInputError("--square {}: expected the square side in mm, > 0", square_mm_);
+    options.board.square_mm = square_mm_;
+    options.model = ParseDistortionModel(model_);
+    CheckOutputFolder(output_, "--output");
+    if (!json_.empty()) CheckOutputFolder(json_, "--json");
+    options.progress = [](const std::string& s) { spdlog::debug("{}", s); };
+
+    const std::vector<ImagePairFiles> pairs = PairImagesByName(left_, right_);
+    spdlog::info("calibrate-rig: {} image pairs, board {}x{} inner corners, {} mm squares", pairs.size(), columns, rows,
+                 square_mm_);
+    const RigCalibrationReport report = CalibrateRig(pairs, options);
+    Print(report);
+    if (report.rms_px > 1.0)
+      spdlog::warn("the stereo RMS reprojection error is {:.2f} px: check the board size (--board, --square), "
+                   "the focus and the pairs with the largest errors",
+                   report.rms_px);
+
+    // Written only now that everything is computed; both writes are atomic.
+    WriteRigFile(output_, report.rig);
+    std::cout << "wrote " << output_ << "\n";
+    if (!json_.empty()) {
+      WriteTextFileAtomically(json_, report.ToJson().dump(2) + "\n");
+      std::cout << "wrote " << json_ << "\n";
+    }
+    return 0;
+  }
+
+ private:
+  static void Print(const RigCalibrationReport& r) {
+    std::cout << fmt::format("{} of {} pairs used, image {}x{}, distortion model {}\n", r.PairsUsed(), r.pairs_total,
+                             r.image_width, r.image_height, DistortionModelName(r.model));
+    for (const RejectedPair& p : r.rejected)
+      std::cout << fmt::format("  rejected {} / {}: {}\n", FileName(p.left), FileName(p.right), p.reason);
+    std::cout << fmt::format("  {:<40} {:>9} {:>9} {:>9}\n", "pair", "left px", "right px", "epipolar");
+    for (const ViewError& v : r.views)
+      std::cout << fmt::format("  {:<40} {:>9.3f} {:>9.3f} {:>9.3f}\n", FileName(v.left) + " " + FileName(v.right),
+                               v.left_rms_px, v.right_rms_px, v.epipolar_px);
+    std::cout << fmt::format("single-camera RMS reprojection error: left {:.3f} px, right {:.3f} px\n", r.left_rms_px,
+                             r.right_rms_px);
+    std::cout << fmt::format("stereo RMS reprojection error: {:.3f} px\n", r.rms_px);
+    std::cout << fmt::format(
+        "average epipolar error: {:.3f} px (both images summed, as OpenCV's stereo_calib; {:.3f} px per image)\n",
+        r.epipolar_px, r.epipolar_px / 2);
+    const StereoRig& rig = r.rig;
+    std::cout << fmt::format("left  fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f}\n", rig.left.fx, rig.left.fy, rig.left.cx,
+                             rig.left.cy);
+    std::cout << fmt::format("right fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f}\n", rig.right.fx, rig.right.fy,
+                             rig.right.cx, rig.right.cy);
+    std::cout << fmt::format("baseline {:.4f} mm, angle between the cameras {:.4f} deg\n", rig.BaselineMm(),
+                             Eigen::AngleAxisd(rig.cam2_from_cam1.rotation).angle() * 180.0 / M_PI);
+  }
+
+  std::vector<std::string> left_, right_;
+  std::string board_;
+  double square_mm_ = 0;
+  std::string output_;
+  std::string json_;
+  std::string model_ = "standard";
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeCalibrateRigCommand() { return std::make_unique<CalibrateRigCommand>(); }
+
+}  // namespace flatscan

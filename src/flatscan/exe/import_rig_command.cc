@@ -1,0 +1,79 @@
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "flatscan/exe/commands.h"
+#include "flatscan/io/rig_file.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// "9x6" -> (9, 6); nullopt unless it is two positive integers (at most 100000) around
+// an x. (Hand-parsed: std::regex draws false -Wmaybe-uninitialized warnings from GCC 12
+// under the sanitizers.)
+std::optional<std::pair<int, int>> ParseTwoIntegers(const std::string& text) {
+  const auto number = [](std::string s) -> std::optional<int> {
+    const size_t first = s.find_first_not_of(" \t"), last = s.find_last_not_of(" \t");
+    if (first == std::string::npos) return std::nullopt;
+    s = s.substr(first, last - first + 1);
+    if (s.empty() || s.size() > 6 || s.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
+    const int value = std::stoi(s);
+    if (value <= 0 || value > 100000) return std::nullopt;
+    return value;
+  };
+  const size_t x = text.find_first_of("xX");
+  if (x == std::string::npos) return std::nullopt;
+  const std::optional<int> a = number(text.substr(0, x)), b = number(text.substr(x + 1));
+  if (!a || !b) return std::nullopt;
+  return std::pair<int, int>(*a, *b);
+}
+
+std::pair<int, int> ParseImageSize(const std::string& text) {
+  const std::optional<std::pair<int, int>> parsed = ParseTwoIntegers(text);
+  if (!parsed)
+    ThrowInputError("--size '{}': expected the image size in pixels as width x height, such as 640x480", text);
+  return *parsed;
+}
+
+class ImportRigCommand : public Command {
+ public:
+  void Register(CLI::App& app) override {
+    sub_ = app.add_subcommand("import-rig",
+                              "Make a rig file from OpenCV stereo_calib's intrinsics.yml and extrinsics.yml "
+                              "(the rectification is recomputed with flags = 0).");
+    sub_->footer("Example: flatscan import-rig --intrinsics intrinsics.yml --extrinsics extrinsics.yml "
+                 "--size 640x480 -o rig.yml");
+    sub_->add_option("--intrinsics", intrinsics_, "intrinsics.yml (M1 D1 M2 D2)")->required();
+    sub_->add_option("--extrinsics", extrinsics_, "extrinsics.yml (R T ...)")->required();
+    sub_->add_option("--size", size_, "image size WxH in pixels (stereo_calib does not record it)")->required();
+    sub_->add_option("-o,--output", output_, "rig file to write")->required();
+  }
+
+  int Run() override {
+    const auto [width, height] = ParseImageSize(size_);
+    const std::filesystem::path parent = std::filesystem::path(output_).has_parent_path()
+                                             ? std::filesystem::path(output_).parent_path()
+                                             : std::filesystem::path(".");
+    std::error_code ec;
+    if (!std::filesystem::is_directory(parent, ec))
+      ThrowInputError("--output '{}': the folder '{}' does not exist", output_, parent.string());
+    const StereoRig rig = ImportOpenCvStereoCalib(intrinsics_, extrinsics_, width, height);
+    WriteRigFile(output_, rig);
+    std::cout << fmt::format("imported {} and {}: {}x{}, baseline {:.4f} mm\nwrote {}\n", intrinsics_, extrinsics_,
+                             width, height, rig.BaselineMm(), output_);
+    return 0;
+  }
+
+ private:
+  std::string intrinsics_, extrinsics_, size_, output_;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeImportRigCommand() { return std::make_unique<ImportRigCommand>(); }
+
+}  // namespace flatscan
