@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/io/image_io.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/support_plane/plane_calibration.h"
@@ -19,37 +20,6 @@
 namespace flatscan {
 namespace {
 
-// `path` as 8-bit grey: colour is converted (with a warning), 16-bit is scaled so its
-// maximum becomes 255 (with a warning).
-cv::Mat1b ReadMarkerImage(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) ThrowInputError("{}: no such file", path);
-  if (std::filesystem::is_directory(path, ec)) ThrowInputError("{}: is a folder, not an image", path);
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty())
-    ThrowInputError("{}: cannot read image (expected an 8-bit grey PNG, JPEG, BMP, TIFF or PGM file)", path);
-  if (image.depth() != CV_8U && image.depth() != CV_16U)
-    ThrowInputError("{}: image of OpenCV depth {} not supported (expected 8-bit grey; 16-bit is converted)", path,
-                    image.depth());
-  if (image.channels() == 3 || image.channels() == 4) {
-    cv::Mat grey;
-    cv::cvtColor(image, grey, image.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
-    image = grey;
-    spdlog::warn("{}: colour image converted to grey", path);
-  } else if (image.channels() != 1) {
-    ThrowInputError("{}: image with {} channels not supported (expected 8-bit grey)", path, image.channels());
-  }
-  if (image.depth() == CV_16U) {
-    double max_value = 0;
-    cv::minMaxLoc(image, nullptr, &max_value);
-    const double scale = max_value > 255 ? 255.0 / max_value : 1.0;
-    cv::Mat converted;
-    image.convertTo(converted, CV_8U, scale);
-    image = converted;
-    spdlog::warn("{}: 16-bit image converted to 8 bits (grey x {:.4g})", path, scale);
-  }
-  return image;
-}
 
 nlohmann::json Json(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
 nlohmann::json Json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
@@ -105,8 +75,8 @@ class CalibratePlaneCommand : public Command {
   int Run() override {
     const auto start = std::chrono::steady_clock::now();
     const StereoRig rig = ReadRigFile(rig_);
-    const cv::Mat1b left = ReadMarkerImage(left_);
-    const cv::Mat1b right = ReadMarkerImage(right_);
+    const cv::Mat1b left = ReadGreyImage(left_);
+    const cv::Mat1b right = ReadGreyImage(right_);
     PlaneCalibrationOptions options;
     options.centre_correction = !no_correction_;
     options.left_name = left_;

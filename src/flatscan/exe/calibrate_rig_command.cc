@@ -11,6 +11,7 @@
 
 #include "flatscan/calibration/rig_calibration.h"
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/parse_util.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
@@ -18,25 +19,6 @@
 namespace flatscan {
 namespace {
 
-// "9x6" -> (9, 6); nullopt unless it is two positive integers (at most 100000) around
-// an x. (Hand-parsed: std::regex draws false -Wmaybe-uninitialized warnings from GCC 12
-// under the sanitizers.)
-std::optional<std::pair<int, int>> ParseTwoIntegers(const std::string& text) {
-  const auto number = [](std::string s) -> std::optional<int> {
-    const size_t first = s.find_first_not_of(" \t"), last = s.find_last_not_of(" \t");
-    if (first == std::string::npos) return std::nullopt;
-    s = s.substr(first, last - first + 1);
-    if (s.empty() || s.size() > 6 || s.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
-    const int value = std::stoi(s);
-    if (value <= 0 || value > 100000) return std::nullopt;
-    return value;
-  };
-  const size_t x = text.find_first_of("xX");
-  if (x == std::string::npos) return std::nullopt;
-  const std::optional<int> a = number(text.substr(0, x)), b = number(text.substr(x + 1));
-  if (!a || !b) return std::nullopt;
-  return std::pair<int, int>(*a, *b);
-}
 
 // `option` names the flag in the message.
 std::pair<int, int> ParseTimes(const std::string& text, const std::string& option, const std::string& meaning) {
