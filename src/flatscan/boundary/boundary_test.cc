@@ -9,6 +9,7 @@
 #include "flatscan/simulation/coverage_renderer.h"
 #include "flatscan/simulation/image_formation.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/test_util.h"
 
 namespace flatscan {
 namespace {
@@ -123,14 +124,7 @@ TEST(Boundary, CrossRowsInterpolatesTheChainAtEveryRow) {
 }
 
 TEST(Boundary, BadImagesAreRejectedWithAMessage) {
-  auto message = [](const cv::Mat& m) {
-    try {
-      DetectBoundary(m);
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("(no error)");
-  };
+  auto message = [](const cv::Mat& m) { return testing::InputErrorOf([&] { DetectBoundary(m); }); };
   EXPECT_EQ(message(cv::Mat()), "image is empty (expected an 8-bit grey image)");
   EXPECT_EQ(message(cv::Mat3b(50, 50)), "image must be 8-bit single-channel grey, got 3 channel(s) of depth 0");
   EXPECT_EQ(message(cv::Mat1b(10, 50, uint8_t(0))), "image is 50x10 px, smaller than the edge operator's 13x13 window");

@@ -33,14 +33,7 @@ RenderedPart Render(const Station& st, int id, Random& rng, uint64_t seed) {
   return r;
 }
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::InputErrorOf;
 
 // Accuracy with the true rig and plane on a fixed-seed subset (the full study with
 // calibrated rig and plane is `flatscan evaluate`).
@@ -74,7 +67,7 @@ TEST(InspectPart, UnmeasurablePairsSayWhy) {
   InspectionParams params;
   params.thickness_mm = rp.part.geometry.SideHeight();
   auto inspect = [&](const cv::Mat1b& l, const cv::Mat1b& r) {
-    return ErrorOf([&] { InspectPart(st.rig, st.plane, l, r, params, "L.png", "R.png"); });
+    return InputErrorOf([&] { InspectPart(st.rig, st.plane, l, r, params, "L.png", "R.png"); });
   };
   const cv::Mat1b empty = RenderMarkerImage(st, 0, 3);  // backlight and markers, no part
   cv::Mat1b backlight(rp.left.size(), uint8_t(215));

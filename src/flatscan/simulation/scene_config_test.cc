@@ -10,14 +10,7 @@
 namespace flatscan {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using testing::InputErrorOf;
 
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path) << text;
@@ -30,7 +23,7 @@ TEST(SceneConfig, PaperPresetFollowsTheReferenceRig) {
   EXPECT_NEAR(s.left_camera.focal_length_mm / (s.left_camera.pixel_size_um * 1e-3), 11364, 1.0);
   EXPECT_DOUBLE_EQ(s.rig.baseline_mm, 60.0);
   EXPECT_DOUBLE_EQ(s.rig.working_distance_mm, 200.0);
-  EXPECT_EQ(ErrorOf([] { ScenePreset("nope"); }), "unknown preset 'nope' (expected one of: paper, compact)");
+  EXPECT_EQ(InputErrorOf([] { ScenePreset("nope"); }), "unknown preset 'nope' (expected one of: paper, compact)");
 }
 
 TEST(SceneConfig, JsonRoundTripKeepsEveryField) {
@@ -80,23 +73,23 @@ TEST(SceneConfig, BadValuesNameTheFileAndField) {
   const auto json = dir.path() / "s.json";
   const std::string y = yml.string(), j = json.string();
   WriteText(yml, "optics:\n  noise_sigma_grey: -1\n");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(yml); }), y + ": optics.noise_sigma_grey must be >= 0, got -1");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(yml); }), y + ": optics.noise_sigma_grey must be >= 0, got -1");
   WriteText(yml, "optics:\n  blur_sigma_px:\n");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(yml); }), y + ": optics.blur_sigma_px has no value (expected a number in [0, 10])");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(yml); }), y + ": optics.blur_sigma_px has no value (expected a number in [0, 10])");
   WriteText(json, R"({"part": {"thickness_mm": [0.3, 0.1]}})");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(json); }), j + ": part.thickness_mm must have lo <= hi, got [0.3,0.1]");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), j + ": part.thickness_mm must have lo <= hi, got [0.3,0.1]");
   WriteText(json, R"({"optic": {"blur_sigma_px": 1}})");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": unknown field 'optic'", 0), 0u);
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": unknown field 'optic'", 0), 0u);
   WriteText(json, R"({"camera": {"width": "big"}})");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(json); }), j + ": camera.width must be an integer in [16, 20000], got \"big\"");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), j + ": camera.width must be an integer in [16, 20000], got \"big\"");
   WriteText(json, R"({"camera": {"distortion": [0.1, 0.2, 0.3]}})");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(json); }),
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }),
             j + ": camera.distortion must be a list of 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), got [0.1,0.2,0.3]");
   WriteText(json, R"({"preset": "nope"})");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(json); }), "unknown preset 'nope' (expected one of: paper, compact)");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), "unknown preset 'nope' (expected one of: paper, compact)");
   WriteText(json, "{not json");
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": not valid JSON", 0), 0u);
-  EXPECT_EQ(ErrorOf([&] { LoadSceneFile(dir.path() / "missing.yml"); }),
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": not valid JSON", 0), 0u);
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(dir.path() / "missing.yml"); }),
             (dir.path() / "missing.yml").string() + ": cannot open scene file (expected a readable YAML or JSON file)");
 }
 

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "flatscan/util/error.h"
+
 namespace flatscan::testing {
 
 ScratchDir::ScratchDir(const std::string& name) {
@@ -17,6 +19,15 @@ ScratchDir::ScratchDir(const std::string& name) {
 ScratchDir::~ScratchDir() {
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
+}
+
+std::string InputErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 std::string ReadFileBytes(const std::filesystem::path& path) {

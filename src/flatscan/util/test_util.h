@@ -1,6 +1,7 @@
 #pragma once
 // Helpers shared by the tests: scratch folders and running the flatscan binary.
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace flatscan::testing {
@@ -24,6 +25,9 @@ struct CommandResult {
 
 // Runs build/flatscan with `args` (a shell-quoted string).
 CommandResult RunFlatscan(const std::string& args);
+
+// The message of the InputError that `f` throws, or "(no error)".
+std::string InputErrorOf(const std::function<void()>& f);
 
 // Reads a whole file as bytes.
 std::string ReadFileBytes(const std::filesystem::path& path);
