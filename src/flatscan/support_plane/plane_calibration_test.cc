@@ -269,7 +269,7 @@ TEST(PlaneCalibration, ThreeMarkersWarnAndTwoFail) {
 // The command line: success, report, and bad input (exit 2, no plane file).
 TEST(PlaneCalibration, CalibratePlaneCommand) {
   using testing::RunFlatscan;
-  const MarkerPair& p = RenderedPair(7.0, 120.0);
+  const MarkerPair& p = RenderedPair(10.0, 45.0, "compact");  // 1920 x 1200: half the render time
   const testing::ScratchDir dir("calibrate-plane");
   const auto path = [&](const char* name) { return (dir.path() / name).string(); };
   WriteRigFile(path("rig.yml"), p.station.rig);
@@ -300,9 +300,9 @@ TEST(PlaneCalibration, CalibratePlaneCommand) {
   EXPECT_TRUE(std::filesystem::exists(path("plane_naive.yml")));
 
   // Bad input: exit 2, a message naming the file, and no plane file.
-  cv::imwrite(path("small.png"), p.left(cv::Rect(0, 0, 1296, 972)));
-  cv::imwrite(path("blank.png"), cv::Mat1b(1944, 2592, uint8_t(210)));
-  cv::imwrite(path("colour.png"), cv::Mat3b(1944, 2592, cv::Vec3b(210, 210, 210)));
+  cv::imwrite(path("small.png"), p.left(cv::Rect(0, 0, 960, 600)));
+  cv::imwrite(path("blank.png"), cv::Mat1b(1200, 1920, uint8_t(210)));
+  cv::imwrite(path("colour.png"), cv::Mat3b(1200, 1920, cv::Vec3b(210, 210, 210)));
   std::filesystem::copy_file(path("rig.yml"), path("rig_no_T.yml"));
   {
     std::string text = testing::ReadFileBytes(path("rig.yml"));
@@ -319,7 +319,7 @@ TEST(PlaneCalibration, CalibratePlaneCommand) {
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("rig.yml"), path("R.png")),
        "rig.yml: cannot read image"},
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("L.png"), path("small.png")),
-       "small.png: image is 1296x972 px but the rig is calibrated for 2592x1944 px"},
+       "small.png: image is 960x600 px but the rig is calibrated for 1920x1200 px"},
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("blank.png"), path("R.png")),
        "blank.png: found 0 concentric-ring markers, expected 4"},
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("colour.png"), path("R.png")),
