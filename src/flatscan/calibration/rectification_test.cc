@@ -1,6 +1,7 @@
 #include "flatscan/calibration/rectification.h"
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
