@@ -41,13 +41,16 @@ const TiltedStation& Tilted() {
 void Paint(cv::Mat1b& image, double grey, const std::function<void(cv::Mat1b&)>& draw) {
   cv::Mat1b mask = cv::Mat1b::zeros(image.size());
   draw(mask);
+  const cv::Rect box = (cv::boundingRect(mask) + cv::Size(10, 10) - cv::Point(5, 5)) &
+                       cv::Rect(0, 0, image.cols, image.rows);
   cv::Mat1f coverage;
-  mask.convertTo(coverage, CV_32F, 1.0 / 255.0);
+  mask(box).convertTo(coverage, CV_32F, 1.0 / 255.0);
   cv::GaussianBlur(coverage, coverage, cv::Size(0, 0), 1.0);
-  for (int v = 0; v < image.rows; ++v)
-    for (int u = 0; u < image.cols; ++u) {
+  for (int v = 0; v < box.height; ++v)
+    for (int u = 0; u < box.width; ++u) {
       const float c = coverage(v, u);
-      if (c > 0) image(v, u) = cv::saturate_cast<uint8_t>(image(v, u) * (1 - c) + grey * c);
+      uint8_t& px = image(box.y + v, box.x + u);
+      if (c > 0) px = cv::saturate_cast<uint8_t>(px * (1 - c) + grey * c);
     }
 }
 
