@@ -23,6 +23,7 @@ std::unique_ptr<Command> MakeSimulateCommand();
 std::unique_ptr<Command> MakeDemoCommand();
 std::unique_ptr<Command> MakeInspectCommand();
 std::unique_ptr<Command> MakeEdgesCommand();
+std::unique_ptr<Command> MakeEvaluateCommand();
 std::unique_ptr<Command> MakeEvaluateEdgesCommand();
 std::unique_ptr<Command> MakeCalibrateRigCommand();
 std::unique_ptr<Command> MakeImportRigCommand();
@@ -34,6 +35,7 @@ inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   out.push_back(MakeSimulateCommand());
   out.push_back(MakeInspectCommand());
   out.push_back(MakeEdgesCommand());
+  out.push_back(MakeEvaluateCommand());
   out.push_back(MakeEvaluateEdgesCommand());
   out.push_back(MakeCalibrateRigCommand());
   out.push_back(MakeImportRigCommand());

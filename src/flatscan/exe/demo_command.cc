@@ -8,13 +8,11 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "flatscan/calibration/rig_calibration.h"
+#include "flatscan/evaluation/simulated_station.h"
 #include "flatscan/exe/commands.h"
 #include "flatscan/inspection/inspect_part.h"
 #include "flatscan/io/image_io.h"
-#include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/dataset.h"
-#include "flatscan/support_plane/plane_calibration.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -55,22 +53,13 @@ class DemoCommand : public Command {
                              output_, preset_, options.scene.left_camera.width, options.scene.left_camera.height, parts_,
                              Seconds(start));
 
-    auto step = std::chrono::steady_clock::now();
-    RigCalibrationOptions rig_options;
-    rig_options.board = {options.scene.board.inner_corners[0], options.scene.board.inner_corners[1], options.scene.board.square_mm};
-    const RigCalibrationReport rig_report = CalibrateRig(
-        PairImagesByName({(dir / "calib/left_*.png").string()}, {(dir / "calib/right_*.png").string()}), rig_options);
-    WriteRigFile(dir / "rig_calibrated.yml", rig_report.rig);
-    std::cout << fmt::format("2. calibrated the rig from {} pairs: RMS {:.3f} px, epipolar {:.3f} px, baseline {:.3f} mm -> rig_calibrated.yml ({:.1f} s)\n",
-                             rig_report.views.size(), rig_report.rms_px, rig_report.epipolar_px, rig_report.rig.BaselineMm(),
-                             Seconds(step));
-
-    step = std::chrono::steady_clock::now();
-    const PlaneCalibration plane = CalibratePlane(rig_report.rig, ReadGreyImage((dir / "markers/left.png").string()),
-                                                  ReadGreyImage((dir / "markers/right.png").string()));
-    WritePlaneFile(dir / "plane_calibrated.yml", plane.plane);
-    std::cout << fmt::format("3. calibrated the support plane from {} markers: residual RMS {:.4f} mm -> plane_calibrated.yml ({:.1f} s)\n",
-                             plane.matched.size(), plane.tls.RmsMm(), Seconds(step));
+    const auto step = std::chrono::steady_clock::now();
+    const CalibratedStation station = CalibrateSimulatedStation(options.scene, dir);
+    const RigCalibrationReport& rig_report = station.rig_report;
+    std::cout << fmt::format("2. calibrated the rig from {} pairs: RMS {:.3f} px, epipolar {:.3f} px, baseline {:.3f} mm -> rig_calibrated.yml\n",
+                             rig_report.views.size(), rig_report.rms_px, rig_report.epipolar_px, rig_report.rig.BaselineMm());
+    std::cout << fmt::format("3. calibrated the support plane from {} markers: residual RMS {:.4f} mm -> plane_calibrated.yml ({:.1f} s for both)\n",
+                             station.plane_report.matched.size(), station.plane_report.tls.RmsMm(), Seconds(step));
 
     const nlohmann::json truth = nlohmann::json::parse(std::ifstream(dir / "truth.json"));
     std::cout << fmt::format("4. inspected every part with the calibrated rig and plane (tolerance {:.3f} mm):\n", tolerance_);
@@ -90,7 +79,7 @@ class DemoCommand : public Command {
         const cv::Mat1b l = ReadGreyImage((dir / shot["left"].get<std::string>()).string());
         const cv::Mat1b r = ReadGreyImage((dir / shot["right"].get<std::string>()).string());
         const auto t0 = std::chrono::steady_clock::now();
-        const InspectionResult res = InspectPart(rig_report.rig, plane.plane, l, r, params);
+        const InspectionResult res = InspectPart(station.rig(), station.plane(), l, r, params);
         const double ms = 1000 * Seconds(t0);
         const std::string verdict = res.pass ? "pass" : "fail";
         ++measured;

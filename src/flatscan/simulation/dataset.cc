@@ -95,10 +95,15 @@ bool ClearOfMarkers(const Station& st, const PartGeometry& g, const Rigid3d& sup
 }  // namespace
 
 SimulatedPart SampleSimulatedPart(const Station& st, int id, Random& rng) {
+  PartGeometry geometry = SamplePartGeometry(st.scene.part, rng);
+  return PlaceSimulatedPart(st, id, std::move(geometry), rng);
+}
+
+SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometry, Random& rng) {
   SimulatedPart part;
   part.id = id;
   const PartSpec& spec = st.scene.part;
-  part.geometry = SamplePartGeometry(spec, rng);
+  part.geometry = std::move(geometry);
   const PartGeometry& g = part.geometry;
   // Nominal placement: random rotation, random position where the whole part is seen
   // by both cameras.

@@ -57,6 +57,8 @@ struct SimulateSummary {
 // common field of view, the rest jittered by part.jitter_mm / jitter_deg). Throws
 // InputError when the part cannot fit in the common field of view.
 SimulatedPart SampleSimulatedPart(const Station& station, int id, Random& rng);
+// The same for a given part geometry (placement and shots only).
+SimulatedPart PlaceSimulatedPart(const Station& station, int id, PartGeometry geometry, Random& rng);
 
 // One 8-bit image of camera `camera` (0 left, 1 right).
 cv::Mat1b RenderPartImage(const Station& station, int camera, const PartGeometry& geometry,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include <Eigen/Geometry>
 
@@ -303,6 +304,33 @@ PartTruth RestAndPlacePart(const PartGeometry& geometry, double rotation_deg, co
   truth.lsq_pv_mm = values.lsq_pv_mm;
   truth.minzone_mm = values.minzone_mm;
   return truth;
+}
+
+namespace {
+
+Warp ScaledWarp(const Warp& w, double s) {
+  return {s * w.bend_x, s * w.bend_y, s * w.twist, s * w.c30, s * w.c21, s * w.c12, s * w.c03};
+}
+
+}  // namespace
+
+PartGeometry WithFlatness(PartGeometry geometry, double flatness_mm) {
+  if (!(flatness_mm >= 0)) throw std::invalid_argument("WithFlatness: expected a flatness >= 0 mm");
+  const Warp base = geometry.warp;
+  const auto flatness_at = [&](double scale) {
+    geometry.warp = ScaledWarp(base, scale);
+    return RestAndPlacePart(geometry, 0.0, Eigen::Vector2d::Zero()).flatness_mm;
+  };
+  double scale = 1.0, flatness = flatness_at(scale);
+  if (flatness < 1e-9) {
+    geometry.warp.bend_x = 0.1;
+    return WithFlatness(geometry, flatness_mm);
+  }
+  for (int i = 0; i < 12 && std::abs(flatness - flatness_mm) > 1e-8; ++i) {
+    scale *= flatness_mm / flatness;
+    flatness = flatness_at(scale);
+  }
+  return geometry;
 }
 
 nlohmann::json PartGeometryToJson(const PartGeometry& g) {

@@ -108,6 +108,13 @@ struct PartTruth {
 PartTruth RestAndPlacePart(const PartGeometry& geometry, double rotation_deg,
                            const Eigen::Vector2d& position);
 
+// The same part with its warp scaled so that its true flatness_mm (at rest, DESIGN
+// section 5) is `flatness_mm` to within 1e-7 mm. Scaling the warp scales every rim
+// height about the same three contacts, so a few secant steps converge. A part with
+// no warp first gets a unit bend in x. Throws std::invalid_argument for a negative
+// target.
+PartGeometry WithFlatness(PartGeometry geometry, double flatness_mm);
+
 nlohmann::json PartGeometryToJson(const PartGeometry& geometry);
 
 }  // namespace flatscan

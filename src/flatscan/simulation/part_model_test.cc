@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "flatscan/util/random.h"
+
 namespace flatscan {
 namespace {
 
@@ -86,6 +88,23 @@ TEST(PartModel, CenterOfMassOfSymmetricSheetIsAtMidThickness) {
   EXPECT_NEAR(com.x(), 0.0, 1e-9);
   EXPECT_NEAR(com.y(), 0.0, 1e-9);
   EXPECT_NEAR(com.z(), g.thickness / 2, 1e-9);
+}
+
+TEST(PartModel, WithFlatnessHitsTheTargetAndKeepsTheShape) {
+  Random rng(7);
+  PartSpec spec;
+  for (int i = 0; i < 4; ++i) {
+    const PartGeometry g = SamplePartGeometry(spec, rng);
+    for (double target : {0.02, 0.1, 0.323}) {
+      const PartGeometry scaled = WithFlatness(g, target);
+      EXPECT_NEAR(RestAndPlacePart(scaled, 30.0, Eigen::Vector2d(1, 2)).flatness_mm, target, 1e-7);
+      EXPECT_EQ(scaled.half_width, g.half_width);
+      // Only the warp's scale changes: its coefficients stay proportional.
+      EXPECT_NEAR(scaled.warp.twist * g.warp.bend_x, scaled.warp.bend_x * g.warp.twist, 1e-12);
+    }
+  }
+  PartGeometry flat = SharpRectangle();
+  EXPECT_NEAR(RestAndPlacePart(WithFlatness(flat, 0.05), 0.0, Eigen::Vector2d::Zero()).flatness_mm, 0.05, 1e-7);
 }
 
 }  // namespace

@@ -1,0 +1,248 @@
+#include "flatscan/evaluation/flatness_study.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+
+#include "flatscan/simulation/dataset.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// One pair to render and inspect.
+struct ShotJob {
+  std::string id;
+  PartGeometry geometry;
+  PlacedShot shot;
+  uint64_t noise_seed = 0;
+};
+
+PartMeasurement MeasureShot(const CalibratedStation& station, const ShotJob& job, const StudyOptions& options) {
+  PartMeasurement m;
+  m.id = job.id;
+  m.true_flatness_mm = job.shot.truth.flatness_mm;
+  m.true_lsq_pv_mm = job.shot.truth.lsq_pv_mm;
+  m.true_minzone_mm = job.shot.truth.minzone_mm;
+  m.thickness_mm = job.geometry.SideHeight();
+  m.rotation_deg = job.shot.rotation_deg;
+  const Rigid3d& pose = job.shot.truth.support_from_part;
+  const cv::Mat1b left = RenderPartImage(station.truth, 0, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false);
+  const cv::Mat1b right = RenderPartImage(station.truth, 1, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false);
+  InspectionParams params = options.inspection;
+  params.thickness_mm = m.thickness_mm;
+  params.tolerance_mm = options.tolerance_mm;
+  try {
+    const auto start = std::chrono::steady_clock::now();
+    const InspectionResult result = InspectPart(station.rig(), station.plane(), left, right, params,
+                                                job.id + " left", job.id + " right");
+    m.inspect_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    m.measured = true;
+    m.values = result.values;
+    m.coverage = result.coverage;
+    m.valid_points = result.valid;
+    m.pass = result.pass;
+  } catch (const InputError& e) {
+    m.error = e.what();
+  }
+  return m;
+}
+
+// Measures every job in parallel; the results keep the jobs' order.
+std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
+                                          const StudyOptions& options, const StudyProgress& progress) {
+  std::vector<PartMeasurement> out(jobs.size());
+  std::mutex mutex;
+  int done = 0;
+  tbb::parallel_for(size_t{0}, jobs.size(), [&](size_t i) {
+    out[i] = MeasureShot(station, jobs[i], options);
+    const std::lock_guard<std::mutex> lock(mutex);
+    ++done;
+    if (progress) progress(done, static_cast<int>(jobs.size()), out[i]);
+  });
+  return out;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Nearest-rank percentile of sorted values, q in (0, 1].
+double Percentile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return 0;
+  const size_t rank = static_cast<size_t>(std::ceil(q * sorted.size()));
+  return sorted[std::clamp<size_t>(rank, 1, sorted.size()) - 1];
+}
+
+std::vector<double> MeasuredErrors(const std::vector<PartMeasurement>& parts) {
+  std::vector<double> errors;
+  for (const PartMeasurement& p : parts)
+    if (p.measured) errors.push_back(p.ErrorMm());
+  return errors;
+}
+
+double MedianInspectMs(const std::vector<PartMeasurement>& parts) {
+  std::vector<double> ms;
+  for (const PartMeasurement& p : parts)
+    if (p.measured) ms.push_back(p.inspect_ms);
+  return Median(ms);
+}
+
+// Station whose dataset spec asks for `shots` placements per part.
+Station WithShots(const Station& station, int shots) {
+  Station out = station;
+  out.scene.dataset.shots = shots;
+  return out;
+}
+
+// Inverse of the standard normal CDF by bisection on erfc (|error| < 1e-12).
+double InverseNormalCdf(double p) {
+  double lo = -10, hi = 10;
+  for (int i = 0; i < 80; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace
+
+ErrorSummary SummarizeErrors(std::vector<double> errors) {
+  ErrorSummary s;
+  s.count = static_cast<int>(errors.size());
+  if (errors.empty()) return s;
+  double sum = 0;
+  for (double e : errors) sum += e;
+  s.mean_mm = sum / errors.size();
+  double ss = 0;
+  for (double e : errors) ss += (e - s.mean_mm) * (e - s.mean_mm);
+  s.sd_mm = errors.size() > 1 ? std::sqrt(ss / (errors.size() - 1)) : 0.0;
+  for (double& e : errors) e = std::abs(e);
+  std::sort(errors.begin(), errors.end());
+  s.median_abs_mm = Median(errors);
+  s.p95_abs_mm = Percentile(errors, 0.95);
+  s.max_abs_mm = errors.back();
+  return s;
+}
+
+RepeatStudy RunRepeatStudy(const CalibratedStation& station, const RepeatStudyOptions& options,
+                           const StudyProgress& progress) {
+  if (options.shots < 2) ThrowInputError("--shots: expected at least 2 shots, got {}", options.shots);
+  if (!(options.flatness_mm > 0)) ThrowInputError("--true-flatness: expected a value > 0 mm, got {}", options.flatness_mm);
+  Random rng(options.seed);
+  RepeatStudy study;
+  study.geometry = WithFlatness(SamplePartGeometry(station.truth.scene.part, rng), options.flatness_mm);
+  const SimulatedPart part = PlaceSimulatedPart(WithShots(station.truth, options.shots), 0, study.geometry, rng);
+  study.true_flatness_mm = part.shots.front().truth.flatness_mm;
+  std::vector<ShotJob> jobs;
+  for (size_t s = 0; s < part.shots.size(); ++s)
+    jobs.push_back({fmt::format("shot_{:03d}", s), part.geometry, part.shots[s], Random::DeriveSeed(options.seed ^ 0x7AB1E1ull, s)});
+  study.shots = MeasureShots(station, jobs, options, progress);
+
+  std::vector<double> values;
+  for (const PartMeasurement& m : study.shots)
+    if (m.measured) values.push_back(m.values.flatness_mm);
+  study.measured = static_cast<int>(values.size());
+  study.errors = SummarizeErrors(MeasuredErrors(study.shots));
+  if (values.empty()) return study;
+  study.mean_mm = study.true_flatness_mm + study.errors.mean_mm;
+  study.variance_mm2 = study.errors.sd_mm * study.errors.sd_mm;
+  study.relative_error = std::abs(study.mean_mm - study.true_flatness_mm) / study.true_flatness_mm;
+  study.median_inspect_ms = MedianInspectMs(study.shots);
+  return study;
+}
+
+double LotMedianMm(const LotSpec& lot, double tolerance_mm) {
+  // P(f > tol) = 1 - Phi((ln tol - ln median) / s) = beyond
+  return tolerance_mm * std::exp(-lot.log_spread * InverseNormalCdf(1.0 - lot.beyond_fraction));
+}
+
+void CheckLotSpec(const LotSpec& lot, double tolerance_mm) {
+  if (!(lot.beyond_fraction > 0 && lot.beyond_fraction < 1))
+    ThrowInputError("--beyond: expected a fraction between 0 and 1, got {}", lot.beyond_fraction);
+  if (!(lot.log_spread > 0)) ThrowInputError("--lot-spread: expected a value > 0, got {}", lot.log_spread);
+  if (!(lot.min_mm < tolerance_mm && tolerance_mm < lot.max_mm))
+    ThrowInputError("--tolerance: expected a value between {} and {} mm, got {}", lot.min_mm, lot.max_mm, tolerance_mm);
+}
+
+double SampleLotFlatness(const LotSpec& lot, double tolerance_mm, Random& rng) {
+  CheckLotSpec(lot, tolerance_mm);
+  const double log_median = std::log(LotMedianMm(lot, tolerance_mm));
+  for (;;) {
+    const double f = std::exp(rng.Normal(log_median, lot.log_spread));
+    if (f >= lot.min_mm && f <= lot.max_mm) return f;
+  }
+}
+
+Classification Classify(const std::vector<PartMeasurement>& parts, double tolerance_mm) {
+  Classification c;
+  for (const PartMeasurement& p : parts) {
+    if (!p.measured) {
+      ++c.unmeasured;
+      continue;
+    }
+    const bool unqualified = p.true_flatness_mm > tolerance_mm, detected = !p.pass;
+    (unqualified ? (detected ? c.tp : c.fn) : (detected ? c.fp : c.tn))++;
+  }
+  const auto ratio = [](int a, int b) { return b > 0 ? static_cast<double>(a) / b : 0.0; };
+  c.precision = ratio(c.tp, c.tp + c.fp);
+  c.recall = ratio(c.tp, c.tp + c.fn);
+  c.accuracy = ratio(c.tp + c.tn, c.tp + c.tn + c.fp + c.fn);
+  return c;
+}
+
+GuardBandSummary ApplyGuardBand(const std::vector<PartMeasurement>& parts, double tolerance_mm, double uncertainty_mm) {
+  GuardBandSummary g;
+  g.uncertainty_mm = uncertainty_mm;
+  for (const PartMeasurement& p : parts) {
+    if (!p.measured) continue;
+    const bool wrong = p.pass == (p.true_flatness_mm > tolerance_mm);
+    if (std::abs(p.values.flatness_mm - tolerance_mm) <= uncertainty_mm) {
+      ++g.marginal;
+      g.wrong_marginal += wrong;
+    } else {
+      ++g.decided;
+      g.decided_wrong += wrong;
+    }
+  }
+  g.decided_accuracy = g.decided > 0 ? 1.0 - static_cast<double>(g.decided_wrong) / g.decided : 0.0;
+  return g;
+}
+
+BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,
+                         const StudyProgress& progress) {
+  if (options.parts < 1) ThrowInputError("--batch: expected at least 1 part, got {}", options.parts);
+  const Station one_shot = WithShots(station.truth, 1);
+  std::vector<ShotJob> jobs(options.parts);
+  tbb::parallel_for(0, options.parts, [&](int i) {
+    Random rng(Random::DeriveSeed(options.seed, i));
+    const double target = SampleLotFlatness(options.lot, options.tolerance_mm, rng);
+    const PartGeometry geometry = WithFlatness(SamplePartGeometry(one_shot.scene.part, rng), target);
+    SimulatedPart part = PlaceSimulatedPart(one_shot, i, geometry, rng);
+    jobs[i] = {fmt::format("part_{:04d}", i), part.geometry, part.shots.front(), Random::DeriveSeed(options.seed ^ 0xBA7C4ull, i)};
+  });
+  BatchStudy study;
+  study.parts = MeasureShots(station, jobs, options, progress);
+  study.classification = Classify(study.parts, options.tolerance_mm);
+  study.errors = SummarizeErrors(MeasuredErrors(study.parts));
+  study.uncertainty_mm = study.errors.p95_abs_mm;
+  study.guard_band = ApplyGuardBand(study.parts, options.tolerance_mm, study.uncertainty_mm);
+  int beyond = 0, near = 0;
+  for (const PartMeasurement& p : study.parts) {
+    beyond += p.true_flatness_mm > options.tolerance_mm;
+    near += std::abs(p.true_flatness_mm - options.tolerance_mm) <= 0.010;
+  }
+  study.true_beyond_fraction = static_cast<double>(beyond) / options.parts;
+  study.near_tolerance_fraction = static_cast<double>(near) / options.parts;
+  study.median_inspect_ms = MedianInspectMs(study.parts);
+  return study;
+}
+
+}  // namespace flatscan

@@ -1,0 +1,131 @@
+#include <chrono>
+#include <iostream>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "flatscan/evaluation/flatness_study.h"
+#include "flatscan/evaluation/study_report.h"
+#include "flatscan/exe/commands.h"
+#include "flatscan/io/atomic_output.h"
+#include "flatscan/io/image_io.h"
+#include "flatscan/simulation/scene_config.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// Progress lines on stderr: about every 5% and at the end.
+StudyProgress ProgressLogger(const std::string& what) {
+  return [what, start = std::chrono::steady_clock::now()](int done, int total, const PartMeasurement& m) {
+    const int step = std::max(1, total / 20);
+    if (done % step != 0 && done != total) return;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    spdlog::info("{} {}/{} ({:.0f} s, about {:.0f} s left); last: {} true {:.4f} mm, {}", what, done, total, s,
+                 s / done * (total - done), m.id, m.true_flatness_mm,
+                 m.measured ? fmt::format("measured {:.4f} mm", m.values.flatness_mm) : "not measured");
+  };
+}
+
+// flatscan evaluate: the paper's Tables 1 and 2 on a simulated station.
+class EvaluateCommand : public Command {
+ public:
+  void Register(CLI::App& app) override {
+    sub_ = app.add_subcommand("evaluate",
+                              "Reproduce the paper's Table 1 (--repeat) and Table 2 (--batch N) on a simulated station "
+                              "calibrated from its own simulated images; markdown, JSON and PNG charts.");
+    sub_->footer("Example: flatscan evaluate --repeat --batch 1000 -o eval-paper\n"
+                 "         flatscan evaluate --scene my_rig.yml --batch 200 -o eval-my-rig");
+    auto* preset = sub_->add_option("--preset", preset_, "built-in scene: paper or compact")->default_val("paper");
+    sub_->add_option("--scene", scene_file_, "scene file (YAML or JSON; see docs/simulator.md)")->excludes(preset);
+    sub_->add_option("-o,--output", output_, "output folder (replaced if it exists)")->default_val("flatscan-evaluate");
+    sub_->add_option("--seed", seed_, "random seed (same seed, same figures)")->default_val(1);
+    sub_->add_flag("--repeat", repeat_, "Table 1: one part shot --shots times");
+    sub_->add_option("--shots", repeat_options_.shots, "shots of the repeat study")->default_val(100)->check(CLI::Range(2, 100000));
+    sub_->add_option("--true-flatness", repeat_options_.flatness_mm, "true flatness of the repeat study's part, mm")
+        ->default_val(0.323)->check(CLI::PositiveNumber);
+    sub_->add_option("--batch", batch_options_.parts, "Table 2: number of different parts")->check(CLI::Range(1, 1000000));
+    sub_->add_option("--tolerance", tolerance_, "flatness tolerance, mm")->default_val(0.1)->check(CLI::PositiveNumber);
+    sub_->add_option("--beyond", batch_options_.lot.beyond_fraction, "fraction of the lot beyond the tolerance")
+        ->default_val(0.4)->check(CLI::Range(0.01, 0.99));
+    sub_->add_option("--lot-spread", batch_options_.lot.log_spread,
+                     "standard deviation of ln(flatness) in the lot (smaller: more parts near the tolerance)")
+        ->default_val(0.8)->check(CLI::Range(0.05, 3.0));
+    sub_->add_option("--calib-poses", calib_poses_, "chessboard pairs for the rig calibration")->default_val(14)->check(CLI::Range(3, 200));
+    sub_->add_flag("--no-thickness-correction", no_correction_, "inspect as if the sheet had no thickness");
+  }
+
+  int Run() override {
+    if (!repeat_ && batch_options_.parts <= 0)
+      ThrowInputError("evaluate: expected --repeat and/or --batch N (for example: flatscan evaluate --repeat --batch 1000)");
+    if (batch_options_.parts > 0) CheckLotSpec(batch_options_.lot, tolerance_);
+    SceneConfig scene = scene_file_.empty() ? ScenePreset(preset_) : LoadSceneFile(scene_file_);
+    scene.board.poses = calib_poses_;
+    for (StudyOptions* o : {static_cast<StudyOptions*>(&repeat_options_), static_cast<StudyOptions*>(&batch_options_)}) {
+      o->tolerance_mm = tolerance_;
+      o->seed = seed_;
+      o->inspection.thickness_correction = !no_correction_;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    StagedDirectory dir(output_);
+    const std::filesystem::path root = dir.path();
+    spdlog::info("simulating and calibrating the station '{}'", scene.name);
+    const CalibratedStation station = SimulateAndCalibrateStation(
+        scene, seed_, root / "station", [](const std::string& s) { spdlog::info("rendering {}", s); });
+    std::string md = fmt::format("## flatscan evaluate: scene '{}', seed {}{}\n\n", scene.name, seed_,
+                                 no_correction_ ? ", thickness correction OFF" : "");
+    md += CalibrationMarkdown(station) + "\n";
+    nlohmann::json json = {{"scene", SceneToJson(scene)}, {"seed", seed_}, {"thickness_correction", !no_correction_},
+                           {"calibration", CalibrationJson(station)}};
+    std::cout << md << std::flush;
+    if (repeat_) {
+      const RepeatStudy study = RunRepeatStudy(station, repeat_options_, ProgressLogger("repeat: shot"));
+      const std::string part = RepeatMarkdown(study, repeat_options_) + "\n";
+      std::cout << part << std::flush;
+      md += part;
+      json["repeat"] = RepeatJson(study, repeat_options_);
+      WriteImage((root / "repeat_shots.png").string(), RepeatShotsChart(study));
+      WriteImage((root / "repeat_error_histogram.png").string(),
+                 ErrorHistogramChart(study.shots, 2 * std::sqrt(study.variance_mm2), "Repeat study: flatness error of each shot"));
+    }
+    if (batch_options_.parts > 0) {
+      const BatchStudy study = RunBatchStudy(station, batch_options_, ProgressLogger("batch: part"));
+      const std::string part = BatchMarkdown(study, batch_options_) + "\n";
+      std::cout << part << std::flush;
+      md += part;
+      json["batch"] = BatchJson(study, batch_options_);
+      WriteImage((root / "batch_measured_vs_true.png").string(), MeasuredVsTrueChart(study, tolerance_));
+      WriteImage((root / "batch_error_histogram.png").string(),
+                 ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    json["total_seconds"] = seconds;
+    WriteTextFileAtomically(root / "report.md", md);
+    WriteTextFileAtomically(root / "evaluation.json", json.dump(1) + "\n");
+    dir.Commit();
+    std::cout << fmt::format("wrote {}/ (report.md, evaluation.json, charts, station/) in {:.1f} s\n", output_, seconds);
+    return 0;
+  }
+
+ private:
+  std::string preset_ = "paper";
+  std::string scene_file_;
+  std::string output_ = "flatscan-evaluate";
+  uint64_t seed_ = 1;
+  bool repeat_ = false;
+  bool no_correction_ = false;
+  double tolerance_ = 0.1;
+  int calib_poses_ = 14;
+  RepeatStudyOptions repeat_options_;
+  BatchStudyOptions batch_options_ = [] {
+    BatchStudyOptions o;
+    o.parts = 0;
+    return o;
+  }();
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeEvaluateCommand() { return std::make_unique<EvaluateCommand>(); }
+
+}  // namespace flatscan

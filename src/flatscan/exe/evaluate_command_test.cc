@@ -1,0 +1,69 @@
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "flatscan/util/test_util.h"
+
+namespace flatscan {
+namespace {
+
+using testing::RunFlatscan;
+using testing::ScratchDir;
+
+// A small version of `flatscan evaluate` on the paper preset: calibrated from its own
+// simulated chessboards and markers, a few repeat shots and a few batch parts.
+TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
+  ScratchDir dir("evaluate-small");
+  const auto out = dir.path() / "eval";
+  const auto r = RunFlatscan("evaluate --repeat --shots 4 --batch 6 --calib-poses 8 --seed 3 -o " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("| boundary stereo (paper) | 0.337 | 3.2e-03 | 4.33% | 627 |"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("| boundary stereo (paper) | 200 | | | | | 97.50% | 98.74% | 98.50% |"), std::string::npos);
+  EXPECT_NE(r.err.find("batch: part 6/6"), std::string::npos);  // progress
+
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out / "evaluation.json"));
+  const auto& repeat = j["repeat"];
+  EXPECT_EQ(repeat["measured"], 4);
+  EXPECT_NEAR(repeat["true_flatness_mm"].get<double>(), 0.323, 1e-6);
+  EXPECT_LE(repeat["relative_error"].get<double>(), 0.015);
+  EXPECT_LE(repeat["variance_mm2"].get<double>(), 1.6e-5);  // SD <= 4 um
+  const auto& batch = j["batch"];
+  EXPECT_EQ(batch["parts"].size(), 6u);
+  EXPECT_EQ(batch["confusion"]["unmeasured"], 0);
+  EXPECT_GE(batch["accuracy"].get<double>(), 5.0 / 6.0);
+  EXPECT_LE(batch["errors"]["median_abs_mm"].get<double>(), 0.006);
+  EXPECT_GT(batch["uncertainty_mm"].get<double>(), 0.0);
+  // Calibrated, not true: the calibrated rig and plane files are in the output.
+  EXPECT_TRUE(std::filesystem::exists(out / "station/rig_calibrated.yml"));
+  EXPECT_TRUE(std::filesystem::exists(out / "station/plane_calibrated.yml"));
+  EXPECT_GE(j["calibration"]["rig"]["pairs_used"].get<int>(), 6);
+  for (const char* chart : {"repeat_shots.png", "repeat_error_histogram.png", "batch_measured_vs_true.png",
+                            "batch_error_histogram.png"}) {
+    const cv::Mat img = cv::imread((out / chart).string());
+    EXPECT_EQ(img.cols, 960) << chart;
+  }
+  const std::string report = testing::ReadFileBytes(out / "report.md");
+  EXPECT_NE(report.find("### Batch classification (paper Table 2): 6 parts"), std::string::npos);
+}
+
+TEST(EvaluateCommand, BadInputExitsTwoWithoutOutput) {
+  ScratchDir dir("evaluate-bad");
+  const auto out = dir.path() / "eval";
+  auto r = RunFlatscan("evaluate -o " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("evaluate: expected --repeat and/or --batch N"), std::string::npos) << r.err;
+  r = RunFlatscan("evaluate --batch 3 --scene " + (dir.path() / "missing.yml").string() + " -o " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("missing.yml"), std::string::npos) << r.err;
+  r = RunFlatscan("evaluate --batch 3 --tolerance 0.001 -o " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--tolerance: expected a value between 0.005 and 0.6 mm, got 0.001"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
+}  // namespace
+}  // namespace flatscan
