@@ -1,6 +1,7 @@
 #include "flatscan/evaluation/flatness_study.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -22,6 +23,12 @@ struct ShotJob {
   uint64_t noise_seed = 0;
 };
 
+std::array<cv::Mat1b, 2> RenderShot(const CalibratedStation& station, const ShotJob& job) {
+  const Rigid3d& pose = job.shot.truth.support_from_part;
+  return {RenderPartImage(station.truth, 0, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false),
+          RenderPartImage(station.truth, 1, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false)};
+}
+
 PartMeasurement MeasureShot(const CalibratedStation& station, const ShotJob& job, const StudyOptions& options) {
   PartMeasurement m;
   m.id = job.id;
@@ -30,9 +37,7 @@ PartMeasurement MeasureShot(const CalibratedStation& station, const ShotJob& job
   m.true_minzone_mm = job.shot.truth.minzone_mm;
   m.thickness_mm = job.geometry.SideHeight();
   m.rotation_deg = job.shot.rotation_deg;
-  const Rigid3d& pose = job.shot.truth.support_from_part;
-  const cv::Mat1b left = RenderPartImage(station.truth, 0, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false);
-  const cv::Mat1b right = RenderPartImage(station.truth, 1, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false);
+  const auto [left, right] = RenderShot(station, job);
   InspectionParams params = options.inspection;
   params.thickness_mm = m.thickness_mm;
   params.tolerance_mm = options.tolerance_mm;
@@ -216,18 +221,30 @@ GuardBandSummary ApplyGuardBand(const std::vector<PartMeasurement>& parts, doubl
   return g;
 }
 
+namespace {
+
+ShotJob BatchJob(const Station& one_shot, const BatchStudyOptions& options, int index) {
+  Random rng(Random::DeriveSeed(options.seed, index));
+  const double target = SampleLotFlatness(options.lot, options.tolerance_mm, rng);
+  const PartGeometry geometry = WithFlatness(SamplePartGeometry(one_shot.scene.part, rng), target);
+  SimulatedPart part = PlaceSimulatedPart(one_shot, index, geometry, rng);
+  return {fmt::format("part_{:04d}", index), part.geometry, part.shots.front(), Random::DeriveSeed(options.seed ^ 0xBA7C4ull, index)};
+}
+
+}  // namespace
+
+RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyOptions& options, int index) {
+  const ShotJob job = BatchJob(WithShots(station.truth, 1), options, index);
+  const auto [left, right] = RenderShot(station, job);
+  return {SimulatedPart{index, job.geometry, {job.shot}}, left, right};
+}
+
 BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,
                          const StudyProgress& progress) {
   if (options.parts < 1) ThrowInputError("--batch: expected at least 1 part, got {}", options.parts);
   const Station one_shot = WithShots(station.truth, 1);
   std::vector<ShotJob> jobs(options.parts);
-  tbb::parallel_for(0, options.parts, [&](int i) {
-    Random rng(Random::DeriveSeed(options.seed, i));
-    const double target = SampleLotFlatness(options.lot, options.tolerance_mm, rng);
-    const PartGeometry geometry = WithFlatness(SamplePartGeometry(one_shot.scene.part, rng), target);
-    SimulatedPart part = PlaceSimulatedPart(one_shot, i, geometry, rng);
-    jobs[i] = {fmt::format("part_{:04d}", i), part.geometry, part.shots.front(), Random::DeriveSeed(options.seed ^ 0xBA7C4ull, i)};
-  });
+  tbb::parallel_for(0, options.parts, [&](int i) { jobs[i] = BatchJob(one_shot, options, i); });
   BatchStudy study;
   study.parts = MeasureShots(station, jobs, options, progress);
   study.classification = Classify(study.parts, options.tolerance_mm);

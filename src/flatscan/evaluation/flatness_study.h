@@ -17,6 +17,7 @@
 
 #include "flatscan/evaluation/simulated_station.h"
 #include "flatscan/inspection/inspect_part.h"
+#include "flatscan/simulation/dataset.h"
 #include "flatscan/simulation/part_model.h"
 #include "flatscan/util/random.h"
 
@@ -126,5 +127,13 @@ struct BatchStudy {
 
 BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,
                          const StudyProgress& progress = {});
+
+// Part `index` of the batch study with `options`, rendered again (the same images the
+// study inspected), to look at a part after the fact.
+struct RenderedPart {
+  SimulatedPart part;  // geometry and its one shot (pose and truth)
+  cv::Mat1b left, right;
+};
+RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyOptions& options, int index);
 
 }  // namespace flatscan

@@ -1,5 +1,6 @@
 #include <chrono>
 #include <iostream>
+#include <numeric>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -52,6 +53,10 @@ class EvaluateCommand : public Command {
                      "standard deviation of ln(flatness) in the lot (smaller: more parts near the tolerance)")
         ->default_val(0.8)->check(CLI::Range(0.05, 3.0));
     sub_->add_option("--calib-poses", calib_poses_, "chessboard pairs for the rig calibration")->default_val(14)->check(CLI::Range(3, 200));
+    sub_->add_option("--save-worst", save_worst_,
+                     "write the image pairs and truth of the N batch parts with the largest |error| (and any not "
+                     "measured) to OUT/worst/, to look at with `flatscan inspect`")
+        ->default_val(0)->check(CLI::NonNegativeNumber);
     sub_->add_flag("--no-thickness-correction", no_correction_, "inspect as if the sheet had no thickness");
   }
 
@@ -95,6 +100,7 @@ class EvaluateCommand : public Command {
       md += part;
       json["batch"] = BatchJson(study, batch_options_);
       WriteImage((root / "batch_measured_vs_true.png").string(), MeasuredVsTrueChart(study, tolerance_));
+      if (save_worst_ > 0) SaveWorstParts(station, study, root / "worst");
       WriteImage((root / "batch_error_histogram.png").string(),
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
     }
@@ -116,6 +122,38 @@ class EvaluateCommand : public Command {
   bool no_correction_ = false;
   double tolerance_ = 0.1;
   int calib_poses_ = 14;
+  int save_worst_ = 0;
+
+  // The worst parts' pairs, pairs.csv and truth.json (rim in the camera-1 frame).
+  void SaveWorstParts(const CalibratedStation& station, const BatchStudy& study, const std::filesystem::path& dir) const {
+    std::vector<int> order(study.parts.size());
+    std::iota(order.begin(), order.end(), 0);
+    const auto badness = [&](int i) { return study.parts[i].measured ? std::abs(study.parts[i].ErrorMm()) : 1e9; };
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return badness(a) > badness(b); });
+    order.resize(std::min<size_t>(order.size(), save_worst_));
+    std::filesystem::create_directories(dir);
+    std::string csv = "id,left,right\n";
+    nlohmann::json truth = nlohmann::json::array();
+    for (int i : order) {
+      const PartMeasurement& m = study.parts[i];
+      const RenderedPart r = RenderBatchPart(station, batch_options_, i);
+      WriteImage((dir / (m.id + "_left.png")).string(), r.left);
+      WriteImage((dir / (m.id + "_right.png")).string(), r.right);
+      csv += fmt::format("{0},{0}_left.png,{0}_right.png\n", m.id);
+      const Rigid3d cam1_from_part = station.truth.cam1_from_support * r.part.shots.front().truth.support_from_part;
+      nlohmann::json rim = nlohmann::json::array();
+      for (const Eigen::Vector3d& p : r.part.geometry.SampleRim(0.1)) {
+        const Eigen::Vector3d q = cam1_from_part * p;
+        rim.push_back({q.x(), q.y(), q.z()});
+      }
+      truth.push_back({{"id", m.id}, {"true_flatness_mm", m.true_flatness_mm}, {"measured", m.measured},
+                       {"flatness_mm", m.values.flatness_mm}, {"thickness_mm", m.thickness_mm},
+                       {"rotation_deg", m.rotation_deg}, {"geometry", PartGeometryToJson(r.part.geometry)},
+                       {"rim_cam1_mm", rim}});
+    }
+    WriteTextFileAtomically(dir / "pairs.csv", csv);
+    WriteTextFileAtomically(dir / "truth.json", truth.dump(1) + "\n");
+  }
   RepeatStudyOptions repeat_options_;
   BatchStudyOptions batch_options_ = [] {
     BatchStudyOptions o;

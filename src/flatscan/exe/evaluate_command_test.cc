@@ -1,6 +1,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -18,7 +19,7 @@ using testing::ScratchDir;
 TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   ScratchDir dir("evaluate-small");
   const auto out = dir.path() / "eval";
-  const auto r = RunFlatscan("evaluate --repeat --shots 4 --batch 6 --calib-poses 8 --seed 3 -o " + out.string());
+  const auto r = RunFlatscan("evaluate --repeat --shots 4 --batch 6 --calib-poses 8 --seed 3 --save-worst 1 -o " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("| boundary stereo (paper) | 0.337 | 3.2e-03 | 4.33% | 627 |"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("| boundary stereo (paper) | 200 | | | | | 97.50% | 98.74% | 98.50% |"), std::string::npos);
@@ -45,6 +46,22 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
     const cv::Mat img = cv::imread((out / chart).string());
     EXPECT_EQ(img.cols, 960) << chart;
   }
+  // The worst part, saved and inspected again with the calibrated station: the same
+  // images, so the same measurement.
+  const nlohmann::json worst = nlohmann::json::parse(std::ifstream(out / "worst/truth.json"));
+  ASSERT_EQ(worst.size(), 1u);
+  const std::string id = worst[0]["id"];
+  const auto again = RunFlatscan(fmt::format(
+      "inspect --rig {0}/station/rig_calibrated.yml --plane {0}/station/plane_calibrated.yml --left {0}/worst/{1}_left.png "
+      "--right {0}/worst/{1}_right.png --thickness {2} --tolerance 0.1 --json {0}/again.json -q",
+      out.string(), id, worst[0]["thickness_mm"].get<double>()));
+  ASSERT_LE(again.exit_code, 1) << again.err;
+  const nlohmann::json inspected = nlohmann::json::parse(std::ifstream(out / "again.json"));
+  EXPECT_NEAR(inspected["flatness_mm"].get<double>(), worst[0]["flatness_mm"].get<double>(), 1e-9);
+  double worst_error = 0;
+  for (const auto& p : batch["parts"]) worst_error = std::max(worst_error, std::abs(p["error_mm"].get<double>()));
+  EXPECT_NEAR(std::abs(worst[0]["flatness_mm"].get<double>() - worst[0]["true_flatness_mm"].get<double>()), worst_error, 1e-12);
+
   const std::string report = testing::ReadFileBytes(out / "report.md");
   EXPECT_NE(report.find("### Batch classification (paper Table 2): 6 parts"), std::string::npos);
 }
