@@ -53,11 +53,14 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   const std::string id = worst[0]["id"];
   const auto again = RunFlatscan(fmt::format(
       "inspect --rig {0}/station/rig_calibrated.yml --plane {0}/station/plane_calibrated.yml --left {0}/worst/{1}_left.png "
-      "--right {0}/worst/{1}_right.png --thickness {2} --tolerance 0.1 --json {0}/again.json -q",
+      "--right {0}/worst/{1}_right.png --thickness {2} --tolerance 0.1 --guard-band 1 --json {0}/again.json",
       out.string(), id, worst[0]["thickness_mm"].get<double>()));
   ASSERT_LE(again.exit_code, 1) << again.err;
   const nlohmann::json inspected = nlohmann::json::parse(std::ifstream(out / "again.json"));
   EXPECT_NEAR(inspected["flatness_mm"].get<double>(), worst[0]["flatness_mm"].get<double>(), 1e-9);
+  EXPECT_EQ(inspected["guard_band_mm"], 1.0);
+  EXPECT_EQ(inspected["marginal"], true);  // every flatness below 1.1 mm is within 1 mm of 0.1 mm
+  EXPECT_NE(again.out.find("MARGINAL: within the 1.0000 mm guard band"), std::string::npos) << again.out;
   double worst_error = 0;
   for (const auto& p : batch["parts"]) worst_error = std::max(worst_error, std::abs(p["error_mm"].get<double>()));
   EXPECT_NEAR(std::abs(worst[0]["flatness_mm"].get<double>() - worst[0]["true_flatness_mm"].get<double>()), worst_error, 1e-12);

@@ -67,6 +67,10 @@ class InspectCommand : public Command {
     sub_->add_option("--json", json_, "JSON result (batch: one JSON line per part, then a summary line)");
     sub_->add_option("--ply", ply_, "PLY of the valid 3D boundary points with their heights (single pair)");
     sub_->add_option("--overlay", overlay_, "folder for left/right overlay PNGs of the points coloured by height");
+    sub_->add_option("--guard-band", guard_band_mm_,
+                     "measurement uncertainty U, mm (e.g. from `flatscan evaluate`): a flatness within U of the "
+                     "tolerance is reported as marginal (the verdict and exit code stay pass/fail)")
+        ->check(CLI::NonNegativeNumber);
     sub_->add_flag("--no-thickness-correction", no_correction_, "triangulate silhouettes as if the sheet had no thickness");
     sub_->add_option("--blur", params_.boundary.blur_sigma_px, "lens blur sigma in px if known (default: estimated)");
   }
@@ -89,7 +93,7 @@ class InspectCommand : public Command {
     const cv::Mat1b l = ReadGreyImage(left_), r = ReadGreyImage(right_);
     const InspectionResult result = InspectPart(rig, plane, l, r, params_, left_, right_);
     PrintSummary(result);
-    if (!json_.empty()) WriteTextFileAtomically(json_, InspectionToJson(result, params_, inputs).dump(2) + "\n");
+    if (!json_.empty()) WriteTextFileAtomically(json_, Record(result, inputs).dump(2) + "\n");
     if (!ply_.empty()) WritePly(ply_, result);
     if (!overlay_.empty()) WriteOverlays(overlay_, l, r, result);
     return result.pass ? 0 : 1;
@@ -98,7 +102,7 @@ class InspectCommand : public Command {
   int RunBatch(const StereoRig& rig, const SupportPlane& plane, const InspectionInputs& base) {
     const std::vector<PairEntry> pairs = ReadPairsCsv(pairs_);
     std::string lines;
-    int pass = 0, fail = 0, unmeasured = 0;
+    int pass = 0, fail = 0, unmeasured = 0, marginal = 0;
     double total_ms = 0;
     std::cout << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", "id", "flatness_mm", "coverage", "verdict", "note");
     for (const PairEntry& p : pairs) {
@@ -110,11 +114,12 @@ class InspectCommand : public Command {
       try {
         const cv::Mat1b l = ReadGreyImage(p.left), r = ReadGreyImage(p.right);
         const InspectionResult result = InspectPart(rig, plane, l, r, params_, p.left, p.right);
-        record = InspectionToJson(result, params_, inputs);
+        record = Record(result, inputs);
         (result.pass ? pass : fail)++;
+        marginal += IsMarginal(result);
         total_ms += record["timing_ms"]["total"].get<double>();
-        std::cout << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}\n", p.id, result.values.flatness_mm, result.coverage,
-                                 result.pass ? "pass" : "fail");
+        std::cout << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", p.id, result.values.flatness_mm, result.coverage,
+                                 result.pass ? "pass" : "fail", IsMarginal(result) ? "marginal" : "");
         if (!overlay_.empty()) WriteOverlays((std::filesystem::path(overlay_) / p.id).string(), l, r, result);
       } catch (const InputError& e) {
         ++unmeasured;
@@ -125,10 +130,11 @@ class InspectCommand : public Command {
       lines += record.dump() + "\n";
     }
     const nlohmann::json summary = {{"summary", true},  {"parts", pairs.size()}, {"pass", pass}, {"fail", fail},
-                                    {"not_measured", unmeasured},
+                                    {"not_measured", unmeasured}, {"marginal", marginal},
                                     {"mean_time_ms", pass + fail > 0 ? total_ms / (pass + fail) : 0.0}};
     lines += summary.dump() + "\n";
-    std::cout << fmt::format("{} parts: {} pass, {} fail, {} not measured\n", pairs.size(), pass, fail, unmeasured);
+    std::cout << fmt::format("{} parts: {} pass, {} fail, {} not measured{}\n", pairs.size(), pass, fail, unmeasured,
+                             guard_band_mm_ >= 0 ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, guard_band_mm_) : "");
     if (!json_.empty()) WriteTextFileAtomically(json_, lines);
     if (unmeasured > 0) return 2;
     return fail > 0 ? 1 : 0;
@@ -140,7 +146,10 @@ class InspectCommand : public Command {
     std::cout << fmt::format(
         "flatness_mm {:.4f}  lsq_pv_mm {:.4f}  minzone_mm {:.4f}\nverdict {} (tolerance {:.3f} mm, thickness {:.3f} mm)\n"
         "points: {} valid of {} matched ({} / {} crossings), coverage {:.3f}{}\ntime {:.1f} ms\n",
-        r.values.flatness_mm, r.values.lsq_pv_mm, r.values.minzone_mm, r.pass ? "pass" : "fail", params_.tolerance_mm,
+        r.values.flatness_mm, r.values.lsq_pv_mm, r.values.minzone_mm,
+        std::string(r.pass ? "pass" : "fail") +
+            (IsMarginal(r) ? fmt::format(" MARGINAL: within the {:.4f} mm guard band", guard_band_mm_) : ""),
+        params_.tolerance_mm,
         params_.thickness_mm, r.valid, r.matched, r.crossings_left, r.crossings_right, r.coverage,
         r.completed > 0 ? fmt::format(" ({} outline points completed from the warp fit)", r.completed) : "", total);
   }
@@ -153,8 +162,23 @@ class InspectCommand : public Command {
     WriteImage((std::filesystem::path(dir) / "right_overlay.png").string(), DrawHeightOverlay(r, result, 1, params_.tolerance_mm));
   }
 
+  // With --guard-band: |flatness - tolerance| <= U.
+  bool IsMarginal(const InspectionResult& r) const {
+    return guard_band_mm_ >= 0 && std::abs(r.values.flatness_mm - params_.tolerance_mm) <= guard_band_mm_;
+  }
+
+  nlohmann::json Record(const InspectionResult& result, const InspectionInputs& inputs) const {
+    nlohmann::json record = InspectionToJson(result, params_, inputs);
+    if (guard_band_mm_ >= 0) {
+      record["guard_band_mm"] = guard_band_mm_;
+      record["marginal"] = IsMarginal(result);
+    }
+    return record;
+  }
+
   std::string rig_, plane_, left_, right_, pairs_, json_, ply_, overlay_;
   bool no_correction_ = false;
+  double guard_band_mm_ = -1;  // < 0: none
   InspectionParams params_;
 };
 
