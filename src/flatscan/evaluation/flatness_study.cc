@@ -249,6 +249,11 @@ BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptio
   study.parts = MeasureShots(station, jobs, options, progress);
   study.classification = Classify(study.parts, options.tolerance_mm);
   study.errors = SummarizeErrors(MeasuredErrors(study.parts));
+  std::vector<double> good, low;
+  for (const PartMeasurement& p : study.parts)
+    if (p.measured) (p.coverage >= BatchStudy::kGoodCoverage ? good : low).push_back(p.ErrorMm());
+  study.errors_good_coverage = SummarizeErrors(good);
+  study.errors_low_coverage = SummarizeErrors(low);
   study.uncertainty_mm = study.errors.p95_abs_mm;
   study.guard_band = ApplyGuardBand(study.parts, options.tolerance_mm, study.uncertainty_mm);
   int beyond = 0, near = 0;

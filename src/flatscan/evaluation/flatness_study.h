@@ -117,6 +117,10 @@ struct BatchStudy {
   std::vector<PartMeasurement> parts;
   Classification classification;
   ErrorSummary errors;
+  // The same split by the inspection's coverage: boundary stretches along the
+  // epipolar rows cannot be measured and are completed from a warp fit.
+  static constexpr double kGoodCoverage = 0.9;
+  ErrorSummary errors_good_coverage, errors_low_coverage;
   // Expanded uncertainty: the 95th percentile of |measured - true| over the lot.
   double uncertainty_mm = 0;
   GuardBandSummary guard_band;

@@ -117,6 +117,9 @@ std::string BatchMarkdown(const BatchStudy& st, const BatchStudyOptions& o) {
   md += "Positive: an unqualified part (true flatness > tolerance); TP: unqualified parts that failed.\n";
   if (c.unmeasured > 0) md += fmt::format("{} parts could not be measured (no verdict; not counted).\n", c.unmeasured);
   md += ErrorLine(st.errors);
+  md += fmt::format("- parts with coverage >= {:.1f}: ", BatchStudy::kGoodCoverage) + ErrorLine(st.errors_good_coverage);
+  md += fmt::format("- parts with coverage < {:.1f} (outline along the epipolar rows): ", BatchStudy::kGoodCoverage) +
+        ErrorLine(st.errors_low_coverage);
   const GuardBandSummary& g = st.guard_band;
   md += fmt::format(
       "Measurement uncertainty U (95th percentile of |error|): {:.2f} um. With a guard band of U, {} parts measured within "
@@ -142,6 +145,8 @@ nlohmann::json BatchJson(const BatchStudy& st, const BatchStudyOptions& o) {
           {"recall", c.recall},
           {"accuracy", c.accuracy},
           {"errors", ErrorJson(st.errors)},
+          {"errors_good_coverage", ErrorJson(st.errors_good_coverage)},
+          {"errors_low_coverage", ErrorJson(st.errors_low_coverage)},
           {"uncertainty_mm", st.uncertainty_mm},
           {"guard_band", {{"uncertainty_mm", g.uncertainty_mm}, {"marginal", g.marginal}, {"wrong_marginal", g.wrong_marginal},
                           {"decided", g.decided}, {"decided_wrong", g.decided_wrong}, {"decided_accuracy", g.decided_accuracy}}},
