@@ -109,58 +109,109 @@ int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::
   return best;
 }
 
-// Heights along the ordered rim, each replaced by a local quadratic in arc length
-// fitted with Gaussian weights (sigma in mm): it averages the noise but, unlike a
-// plain average, does not flatten a smooth peak, so the maximum stays unbiased.
-// `weights` are the points' inverse variances (relative).
+// Heights along the ordered, closed rim, each replaced by a local quadratic in arc
+// length fitted with Gaussian weights (sigma in mm): it averages the noise but,
+// unlike a plain average, does not flatten a smooth peak, so the maximum stays
+// unbiased. `weights` are the points' inverse variances (relative). The fit is
+// robust: two reweighting passes with Tukey's biweight on the residuals scaled by
+// their robust spread, so a few bad points (a corner's blurred silhouette, a
+// mismatched crossing) cannot carry the maximum.
 std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& heights,
                                    const std::vector<double>& weights, double sigma_mm) {
   const int n = static_cast<int>(points.size());
   if (sigma_mm <= 0 || n < 5) return heights;
-  std::vector<double> arc(n, 0.0);
-  for (int i = 1; i < n; ++i) arc[i] = arc[i - 1] + (points[i] - points[i - 1]).norm();
-  std::vector<double> out(heights);
+  std::vector<double> arc(n + 1, 0.0);
+  for (int i = 1; i <= n; ++i) arc[i] = arc[i - 1] + (points[i % n] - points[i - 1]).norm();
+  const double length = arc[n];
   const double reach = 3 * sigma_mm;
-  for (int i = 0; i < n; ++i) {
-    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
-    int lo = i, hi = i;
-    while (lo > 0 && arc[i] - arc[lo - 1] <= reach) --lo;
-    while (hi + 1 < n && arc[hi + 1] - arc[i] <= reach) ++hi;
-    for (int j = lo; j <= hi; ++j) {
-      const double ds = arc[j] - arc[i];
-      const double w = weights[j] * std::exp(-0.5 * (ds / sigma_mm) * (ds / sigma_mm));
-      const Eigen::Vector3d row(1.0, ds, ds * ds);
-      ata += w * row * row.transpose();
-      atb += w * row * heights[j];
+  // Signed arc length from i to j the short way round.
+  auto delta = [&](int i, int j) {
+    double d = arc[j] - arc[i];
+    if (d > 0.5 * length) d -= length;
+    if (d < -0.5 * length) d += length;
+    return d;
+  };
+  std::vector<double> robust(n, 1.0);
+  std::vector<double> out(heights);
+  for (int pass = 0; pass < 3; ++pass) {
+    for (int i = 0; i < n; ++i) {
+      Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+      int used = 0;
+      auto add = [&](int j) {
+        const double ds = delta(i, j);
+        if (std::abs(ds) > reach) return false;
+        const double w = weights[j] * robust[j] * std::exp(-0.5 * (ds / sigma_mm) * (ds / sigma_mm));
+        const Eigen::Vector3d row(1.0, ds, ds * ds);
+        ata += w * row * row.transpose();
+        atb += w * row * heights[j];
+        used += w > 0;
+        return true;
+      };
+      add(i);
+      int k = 1;
+      for (; k < n && add((i + k) % n); ++k) {}
+      for (int back = 1; back < n - k + 1 && add(((i - back) % n + n) % n); ++back) {}
+      out[i] = heights[i];
+      if (used < 5) continue;
+      const Eigen::Vector3d coef = ata.ldlt().solve(atb);
+      if (coef.allFinite()) out[i] = coef[0];
     }
-    if (hi - lo < 4) continue;
-    const Eigen::Vector3d coef = ata.ldlt().solve(atb);
-    if (coef.allFinite()) out[i] = coef[0];
+    if (pass == 2) break;
+    // Residuals in units of each point's own noise; robust spread by the MAD.
+    std::vector<double> z(n), abs_z(n);
+    for (int i = 0; i < n; ++i) z[i] = (heights[i] - out[i]) * std::sqrt(weights[i]), abs_z[i] = std::abs(z[i]);
+    std::nth_element(abs_z.begin(), abs_z.begin() + n / 2, abs_z.end());
+    const double spread = 1.4826 * abs_z[n / 2];
+    if (!(spread > 0)) break;
+    for (int i = 0; i < n; ++i) {
+      const double u = z[i] / (4.685 * spread);
+      robust[i] = std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0.0;
+    }
   }
   return out;
 }
 
 // Height of the rim above the support plane as a cubic polynomial in plane
 // coordinates (a thin sheet's warp: bending, twist and low-order terms, plus the
-// rest tilt), fitted by weighted least squares to the measured rim.
+// rest tilt), fitted by weighted least squares to the measured rim and to the
+// measured edges of the part's holes (the same sheet, with their own offset: a
+// part with walls stands on the walls' rim). Where the rim is missing (stretches
+// along the epipolar rows) the hole edges are what pins the warp between the
+// measured stretches; a small ridge penalty on the curvature terms keeps a warp
+// direction the data do not determine flat instead of letting it run away.
 class RimSurfaceModel {
  public:
   RimSurfaceModel(const SupportPlane& plane, const std::vector<Eigen::Vector3d>& points,
-                  const std::vector<double>& heights, const std::vector<double>& weights)
+                  const std::vector<double>& heights, const std::vector<double>& weights,
+                  const std::vector<Eigen::Vector3d>& inner, const std::vector<double>& inner_heights,
+                  const std::vector<double>& inner_weights)
       : plane_(plane) {
     e1_ = plane.normal.unitOrthogonal();
     e2_ = plane.normal.cross(e1_);
     for (const Eigen::Vector3d& p : points) centre_ += p;
     centre_ /= static_cast<double>(points.size());
-    Eigen::MatrixXd a(points.size(), kTerms);
-    Eigen::VectorXd b(points.size());
-    for (size_t i = 0; i < points.size(); ++i) {
-      const double w = std::sqrt(weights[i]);
-      a.row(i) = w * Basis(points[i]).transpose();
-      b[i] = w * heights[i];
+    const bool use_inner = inner.size() >= 10;
+    const int columns = use_inner ? kTerms + 1 : kTerms;
+    const size_t rows = points.size() + (use_inner ? inner.size() : 0);
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(rows + kTerms - 3, columns);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(rows + kTerms - 3);
+    double total_weight = 0;
+    for (size_t i = 0; i < rows; ++i) {
+      const bool is_inner = i >= points.size();
+      const size_t k = is_inner ? i - points.size() : i;
+      const double w = std::sqrt(is_inner ? inner_weights[k] : weights[k]);
+      total_weight += w * w;
+      a.row(i).head(kTerms) = w * Basis(is_inner ? inner[k] : points[k]).transpose();
+      if (use_inner) a(i, kTerms) = is_inner ? w : 0.0;
+      b[i] = w * (is_inner ? inner_heights[k] : heights[k]);
     }
-    coefficients_ = a.colPivHouseholderQr().solve(b);
+    // Ridge on the quadratic and cubic terms (coordinates in units of 10 mm): a
+    // weight of 1e-4 of the data's leaves any warp the rim or holes show untouched.
+    const double ridge = std::sqrt(1e-5 * total_weight);
+    for (int t = 3; t < kTerms; ++t) a(rows + t - 3, t) = ridge;
+    const Eigen::VectorXd c = a.colPivHouseholderQr().solve(b);
+    coefficients_ = c.head(kTerms);
   }
   double Height(const Eigen::Vector3d& p) const { return Basis(p).dot(coefficients_); }
   // The bottom-rim point seen at raw left pixel `q` (image normal `n`): the left ray
@@ -301,58 +352,127 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
                     "cameras of this rig on this support plane): check the rig and plane files", left_name, right_name);
   }
 
-  // Triangulate, thickness-aware.
-  std::vector<Eigen::Vector3d> cam1;
-  std::vector<InspectedPoint> points;
-  std::vector<double> weight;    // inverse variance: a crossing's x error grows as 1 / |n_x|
-  std::vector<int> chain_index;  // the left crossing's chain index, per point
-  const Eigen::Matrix3d cam1_from_rect1 = stereo.rect1_from_cam1.transpose();
-  for (const StereoMatch& m : matches) {
-    const RowCrossing& a = lc[m.left];
-    const RowCrossing& b = rc[m.right];
-    InspectedPoint p;
-    Eigen::Vector3d rect1;
-    if (params.thickness_correction) {
-      const BottomPoint bp = TriangulateBottomPoint(stereo, a.x, b.x, a.row, Eigen::Vector2d(a.nx, a.ny), up, params.thickness_mm);
-      if (!bp.valid) continue;
-      rect1 = bp.rect1;
-      p.left_edge = bp.left_edge;
-      p.right_edge = bp.right_edge;
-    } else {
-      rect1 = TriangulateRow(stereo, a.x, b.x, a.row);
-      if (!(rect1.z() > 0)) continue;
+  // The right silhouette near a crossing, rectified, in chain order (for the
+  // thickness-aware triangulation, which needs the curve off the crossing's row).
+  std::vector<std::vector<Eigen::Vector2d>> right_chains(rb.contours.size());
+  auto right_silhouette = [&](const RowCrossing& b) {
+    std::vector<Eigen::Vector2d>& chain = right_chains[b.contour];
+    const ContourInfo& info = rb.contours[b.contour];
+    const int n = info.end - info.begin;
+    if (chain.empty()) {
+      chain.reserve(n);
+      for (int i = info.begin; i < info.end; ++i) chain.push_back(right_rect.ToRectified(Eigen::Vector2d(rb.points[i].x, rb.points[i].y)));
     }
-    p.cam1 = cam1_from_rect1 * rect1;
-    p.left_raw = Eigen::Vector2d(a.raw_x, a.raw_y);
-    p.right_raw = Eigen::Vector2d(b.raw_x, b.raw_y);
-    p.outer = a.contour == left_part;
-    p.height_mm = plane.Height(p.cam1);
-    points.push_back(p);
-    cam1.push_back(p.cam1);
-    chain_index.push_back(a.index);
-    weight.push_back(a.nx * a.nx * b.nx * b.nx / (a.nx * a.nx + b.nx * b.nx));
-  }
+    constexpr int kReach = 24;  // chain points either side (about 1 px apart)
+    std::vector<Eigen::Vector2d> out;
+    for (int k = b.index - kReach; k <= b.index + 1 + kReach; ++k) {
+      if (info.closed) out.push_back(chain[((k % n) + n) % n]);
+      else if (k >= 0 && k < n) out.push_back(chain[k]);
+    }
+    return out;
+  };
+
+  // Triangulate, thickness-aware, with the side faces along `side` (rectified frame 1).
+  struct Triangulated {
+    std::vector<InspectedPoint> points;
+    std::vector<double> weight;      // inverse variance: a crossing's x error grows as 1 / |n_x|
+    std::vector<int> chain_index;    // the left crossing's chain index
+    std::vector<BottomPoint> seen;   // which edges, how the faces are seen
+    std::vector<bool> keep;          // radius outlier filter
+  };
+  const Eigen::Matrix3d cam1_from_rect1 = stereo.rect1_from_cam1.transpose();
+  auto triangulate = [&](const Eigen::Vector3d& side) {
+    Triangulated t;
+    std::vector<Eigen::Vector3d> cam1;
+    for (const StereoMatch& m : matches) {
+      const RowCrossing& a = lc[m.left];
+      const RowCrossing& b = rc[m.right];
+      InspectedPoint p;
+      BottomPoint bp;
+      if (params.thickness_correction) {
+        bp = TriangulateBottomPoint(stereo, a.x, a.row, Eigen::Vector2d(a.nx, a.ny), right_silhouette(b), b.x, side,
+                                    params.thickness_mm);
+        if (!bp.valid) continue;
+        p.left_edge = bp.left_edge;
+        p.right_edge = bp.right_edge;
+      } else {
+        bp.rect1 = TriangulateRow(stereo, a.x, b.x, a.row);
+        if (!(bp.rect1.z() > 0)) continue;
+      }
+      p.cam1 = cam1_from_rect1 * bp.rect1;
+      p.left_raw = Eigen::Vector2d(a.raw_x, a.raw_y);
+      p.right_raw = Eigen::Vector2d(b.raw_x, b.raw_y);
+      p.outer = a.contour == left_part;
+      p.height_mm = plane.Height(p.cam1);
+      t.points.push_back(p);
+      t.seen.push_back(bp);
+      cam1.push_back(p.cam1);
+      t.chain_index.push_back(a.index);
+      t.weight.push_back(a.nx * a.nx * b.nx * b.nx / (a.nx * a.nx + b.nx * b.nx));
+    }
+    t.keep = RadiusOutlierFilter(cam1, params.outlier_radius_mm, params.outlier_min_neighbours);
+    return t;
+  };
+  // The side faces are taken along the support normal. A part resting tilted on
+  // three points has its faces tilted with it (t times the tilt sideways, about 3.5
+  // times that in height for the camera that sees the top edge), but the rim's own
+  // least-squares plane is no better an estimate of the face direction: its odd warp
+  // terms tilt it by as much (measured: worse p95 on both presets).
+  const Triangulated tri = triangulate(up);
   timer.Mark("triangulation");
-  const std::vector<bool> keep = RadiusOutlierFilter(cam1, params.outlier_radius_mm, params.outlier_min_neighbours);
-  timer.Mark("outlier_removal");
 
   // The rim: valid outer points in chain order (by the left crossing's chain index).
-  std::vector<std::pair<int, int>> chain_order;  // (chain index, index in result.points)
-  std::vector<double> point_weight;
-  for (size_t i = 0; i < points.size(); ++i) {
-    if (!keep[i]) continue;
-    point_weight.push_back(weight[i]);
-    if (points[i].outer) chain_order.emplace_back(chain_index[i], static_cast<int>(result.points.size()));
-    result.points.push_back(points[i]);
-  }
+  std::vector<std::pair<int, int>> chain_order;  // (chain index, index in tri)
+  for (size_t i = 0; i < tri.points.size(); ++i)
+    if (tri.keep[i] && tri.points[i].outer) chain_order.emplace_back(tri.chain_index[i], static_cast<int>(i));
   std::sort(chain_order.begin(), chain_order.end());
+  // Where a camera's view of the side face turns from outside to inside (its line of
+  // sight grazes the face: a corner), its silhouette runs along the face's vertical
+  // generator, which is neither edge: rim points within the generator's length (plus
+  // the edge operator's reach) of such a turn are dropped.
+  std::vector<bool> drop(tri.points.size(), false);
+  if (params.thickness_correction && chain_order.size() > 2) {
+    const int m = static_cast<int>(chain_order.size());
+    auto pixel_mm = [&](int i) { return tri.points[i].cam1.z() / stereo.f; };
+    for (int j = 0; j < m; ++j) {
+      const int i0 = chain_order[j].second, i1 = chain_order[(j + 1) % m].second;
+      const BottomPoint& a = tri.seen[i0];
+      const BottomPoint& b = tri.seen[i1];
+      double reach = 0;
+      if ((a.facing_left > 0) != (b.facing_left > 0)) reach = std::max({reach, a.generator_left_mm, b.generator_left_mm});
+      if ((a.facing_right > 0) != (b.facing_right > 0)) reach = std::max({reach, a.generator_right_mm, b.generator_right_mm});
+      if (reach == 0) continue;
+      reach += 2.5 * pixel_mm(i0);
+      for (int dir : {-1, 1}) {
+        const int start = dir < 0 ? j : (j + 1) % m;
+        Eigen::Vector3d from = tri.points[chain_order[start].second].cam1;
+        double arc = 0;
+        for (int k = start, steps = 0; steps < m && arc <= reach; k = ((k + dir) % m + m) % m, ++steps) {
+          const Eigen::Vector3d& at = tri.points[chain_order[k].second].cam1;
+          arc += (at - from).norm();
+          from = at;
+          if (arc <= reach) drop[chain_order[k].second] = true;
+        }
+      }
+    }
+  }
+  std::vector<int> result_index(tri.points.size(), -1);
+  for (size_t i = 0; i < tri.points.size(); ++i) {
+    if (!tri.keep[i] || drop[i]) continue;
+    result_index[i] = static_cast<int>(result.points.size());
+    result.points.push_back(tri.points[i]);
+  }
+  std::vector<std::pair<int, int>> rim_order;  // (chain index, index in result.points)
   std::vector<Eigen::Vector3d> rim;
   std::vector<double> rim_heights, rim_weights;
   for (const auto& [index, i] : chain_order) {
-    rim.push_back(result.points[i].cam1);
-    rim_heights.push_back(result.points[i].height_mm);
-    rim_weights.push_back(point_weight[i]);
+    if (result_index[i] < 0) continue;
+    rim_order.emplace_back(index, result_index[i]);
+    rim.push_back(tri.points[i].cam1);
+    rim_heights.push_back(tri.points[i].height_mm);
+    rim_weights.push_back(tri.weight[i]);
   }
+  chain_order = rim_order;
   result.valid = static_cast<int>(result.points.size());
   if (rim.size() < 10)
     ThrowInputError("{} and {}: only {} valid points on the part's outline (expected at least 10): check focus, "
@@ -364,6 +484,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     rim[j] += (smoothed[j] - rim_heights[j]) * plane.normal;
     result.points[chain_order[j].second].height_mm = smoothed[j];
   }
+  timer.Mark("outlier_removal");
 
   // Coverage: outer-boundary chain segments with a valid point within 2 segments.
   const ContourInfo& outer = lb.contours[left_part];
@@ -386,7 +507,15 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   std::vector<Eigen::Vector3d> rim_all = rim;
   std::vector<double> heights_all = smoothed;
   if (params.complete_unmeasured && result.coverage < 1.0) {
-    const RimSurfaceModel model(plane, rim, smoothed, rim_weights);
+    std::vector<Eigen::Vector3d> inner;
+    std::vector<double> inner_heights, inner_weights;
+    for (size_t i = 0; i < tri.points.size(); ++i)
+      if (tri.keep[i] && !drop[i] && !tri.points[i].outer) {
+        inner.push_back(tri.points[i].cam1);
+        inner_heights.push_back(tri.points[i].height_mm);
+        inner_weights.push_back(tri.weight[i]);
+      }
+    const RimSurfaceModel model(plane, rim, smoothed, rim_weights, inner, inner_heights, inner_weights);
     for (int i = 0; i < n; ++i) {
       if (has_point[i]) continue;
       const EdgePoint& e = lb.points[outer.begin + i];

@@ -1,5 +1,9 @@
 #include "flatscan/reconstruction/rectified_stereo.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 #include <Eigen/Dense>
 #include <opencv2/core/eigen.hpp>
 
@@ -44,36 +48,103 @@ Eigen::Vector3d LiftToPlane(const RectifiedStereo& s, double u, double v, const 
 
 }  // namespace
 
-BottomPoint TriangulateBottomPoint(const RectifiedStereo& s, double u_left, double u_right, double row,
-                                   const Eigen::Vector2d& normal_left, const Eigen::Vector3d& up,
-                                   double thickness) {
+namespace {
+
+Eigen::Vector2d ProjectRight(const RectifiedStereo& s, const Eigen::Vector3d& x) {
+  return {s.f * (x.x() + s.tx) / x.z() + s.cx2, s.f * x.y() / x.z() + s.cy};
+}
+
+struct EdgeSeen {
+  int edge = 0;            // 0 bottom, 1 top
+  double facing = 0;       // sine of the angle between the line of sight and the side face
+  double generator = 0;    // mm
+};
+
+// Which edge of the side face at `p` (outward normal `outward`, face direction
+// `side`) forms the silhouette seen from the camera centre `c`.
+EdgeSeen Seen(const Eigen::Vector3d& c, const Eigen::Vector3d& p, const Eigen::Vector3d& outward,
+              const Eigen::Vector3d& side, double thickness) {
+  const Eigen::Vector3d v = c - p;
+  const double along = v.dot(side);
+  EdgeSeen e;
+  e.facing = v.dot(outward) / v.norm();
+  e.edge = e.facing > 0 ? 0 : 1;
+  e.generator = thickness * (v - along * side).norm() / std::max(along, 1e-9);
+  return e;
+}
+
+// Depth (z, rectified frame 1) of the left-ray point X = lambda d_L such that
+// X + delta projects onto the right silhouette polyline, starting near z0; NaN if
+// the polyline does not cross the image of that line.
+double SolveOnRightSilhouette(const RectifiedStereo& s, const Eigen::Vector3d& dl, const Eigen::Vector3d& delta,
+                              const std::vector<Eigen::Vector2d>& silhouette, double z0) {
+  const Eigen::Vector2d p0 = ProjectRight(s, z0 * dl + delta);
+  const Eigen::Vector2d e = ProjectRight(s, 1.02 * z0 * dl + delta) - p0;  // the image of a 3D line is a line
+  double best_a = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d q(0, 0);
+  for (size_t i = 0; i + 1 < silhouette.size(); ++i) {
+    const Eigen::Vector2d& a = silhouette[i];
+    const Eigen::Vector2d ab = silhouette[i + 1] - a;
+    const double det = -e.x() * ab.y() + e.y() * ab.x();
+    if (std::abs(det) < 1e-12) continue;
+    const Eigen::Vector2d r = a - p0;
+    const double alpha = (-r.x() * ab.y() + r.y() * ab.x()) / det;
+    const double beta = (e.x() * r.y() - e.y() * r.x()) / det;
+    if (beta < -1e-9 || beta > 1 + 1e-9 || std::abs(alpha) >= std::abs(best_a)) continue;
+    best_a = alpha;
+    q = a + beta * ab;
+  }
+  if (!std::isfinite(best_a)) return std::numeric_limits<double>::quiet_NaN();
+  // lambda d_L + delta = C2 + mu d_R (they meet: q is the image of a point of the line).
+  const Eigen::Vector3d dr = s.RightRay(q.x(), q.y());
+  Eigen::Matrix<double, 3, 2> m;
+  m.col(0) = dl;
+  m.col(1) = -dr;
+  const Eigen::Vector2d x = m.colPivHouseholderQr().solve(s.RightCentre() - delta);
+  return x[0] * dl.z();
+}
+
+}  // namespace
+
+BottomPoint TriangulateBottomPoint(const RectifiedStereo& s, double u_left, double row,
+                                   const Eigen::Vector2d& normal_left,
+                                   const std::vector<Eigen::Vector2d>& right_silhouette, double u_right,
+                                   const Eigen::Vector3d& side, double thickness) {
   BottomPoint out;
   const Eigen::Vector3d naive = TriangulateRow(s, u_left, u_right, row);
   if (!(naive.z() > 0) || !naive.allFinite()) return out;
-  // The boundary's 3D tangent and outward normal: the image tangent and normal lifted
-  // onto the plane parallel to the support through the naive point.
-  const double eps = 0.5;
-  const Eigen::Vector2d tangent_2d(-normal_left.y(), normal_left.x());
-  const Eigen::Vector3d p0 = LiftToPlane(s, u_left, row, naive, up);
-  Eigen::Vector3d tangent = LiftToPlane(s, u_left + eps * tangent_2d.x(), row + eps * tangent_2d.y(), naive, up) - p0;
-  Eigen::Vector3d outward = LiftToPlane(s, u_left + eps * normal_left.x(), row + eps * normal_left.y(), naive, up) - p0;
-  tangent.normalize();
-  outward = (outward - outward.dot(tangent) * tangent).normalized();
-  // Which edge forms each silhouette: the bottom edge if the camera is on the outer
-  // side of the side face.
-  out.left_edge = (Eigen::Vector3d::Zero() - naive).dot(outward) > 0 ? 0 : 1;
-  out.right_edge = (s.RightCentre() - naive).dot(outward) > 0 ? 0 : 1;
-  // lambda_L dL - lambda_R dR + s T = C2 + (delta_L - delta_R) t N   (B = lambda_L dL - delta_L t N)
-  const Eigen::Vector3d dl = s.LeftRay(u_left, row), dr = s.RightRay(u_right, row);
-  Eigen::Matrix3d a;
-  a.col(0) = dl;
-  a.col(1) = -dr;
-  a.col(2) = tangent;
-  const Eigen::Vector3d rhs = s.RightCentre() + (out.left_edge - out.right_edge) * thickness * up;
-  const Eigen::Vector3d x = a.partialPivLu().solve(rhs);
-  if (!x.allFinite()) return out;
-  out.rect1 = x[0] * dl - out.left_edge * thickness * up;
-  out.valid = out.rect1.z() > 0;
+  const Eigen::Vector3d dl = s.LeftRay(u_left, row);  // naive = z dl (dl.z = 1)
+  Eigen::Vector3d bottom = naive;
+  int left_edge = -1, right_edge = -1;
+  for (int pass = 0; pass < 3; ++pass) {
+    // The rim's outward normal across the side face: the image tangent and normal
+    // lifted onto the plane across the face through the current point.
+    const double eps = 0.5;
+    const Eigen::Vector2d tangent_2d(-normal_left.y(), normal_left.x());
+    const Eigen::Vector3d p0 = LiftToPlane(s, u_left, row, bottom, side);
+    Eigen::Vector3d tangent = LiftToPlane(s, u_left + eps * tangent_2d.x(), row + eps * tangent_2d.y(), bottom, side) - p0;
+    Eigen::Vector3d outward = LiftToPlane(s, u_left + eps * normal_left.x(), row + eps * normal_left.y(), bottom, side) - p0;
+    tangent.normalize();
+    outward = (outward - outward.dot(tangent) * tangent).normalized();
+    const EdgeSeen l = Seen(Eigen::Vector3d::Zero(), bottom, outward, side, thickness);
+    const EdgeSeen r = Seen(s.RightCentre(), bottom, outward, side, thickness);
+    out.facing_left = l.facing;
+    out.facing_right = r.facing;
+    out.generator_left_mm = l.generator;
+    out.generator_right_mm = r.generator;
+    if (l.edge == left_edge && r.edge == right_edge) break;
+    left_edge = l.edge;
+    right_edge = r.edge;
+    double z = naive.z();
+    if (left_edge != right_edge)
+      z = SolveOnRightSilhouette(s, dl, (right_edge - left_edge) * thickness * side, right_silhouette, naive.z());
+    if (!(z > 0)) return out;
+    bottom = z * dl - left_edge * thickness * side;
+  }
+  out.rect1 = bottom;
+  out.left_edge = left_edge;
+  out.right_edge = right_edge;
+  out.valid = bottom.allFinite() && bottom.z() > 0;
   return out;
 }
 

@@ -9,14 +9,17 @@
 //
 // Thickness (DESIGN section 2): against a backlight each camera's silhouette is the
 // bottom or the top edge of the sheet's side face: the bottom edge when the camera
-// lies on the outer side of the boundary's local outward normal (it sees the face),
-// the top edge (bottom + t N, N the plane normal toward the cameras) otherwise. With
-// delta_k = 0 (bottom) or 1 (top) for each camera, the bottom point B satisfies
-//   B + delta_L t N            on the left ray,
-//   B + delta_R t N + s T      on the right ray,
-// with T the boundary's 3D tangent: when the two cameras see different edges, the
-// right crossing on the same epipolar row belongs to a neighbouring point of the
-// edge. Three linear equations in (lambda_L, lambda_R, s).
+// lies on the outer side of the side face (it sees the face), the top edge
+// (bottom + t S, S the direction of the side face, toward the cameras) otherwise.
+// With delta_k = 0 (bottom) or 1 (top), the bottom-rim point B seen by the left
+// crossing satisfies: B + delta_L t S lies on the left ray, and B + delta_R t S
+// projects onto the right image's silhouette curve (not necessarily on the same
+// row: when the two cameras see different edges, the right crossing on the row
+// belongs to a neighbouring rim point). The second condition is solved exactly
+// against the right silhouette as a polyline (no straight-tangent or level-rim
+// approximation), so curved corners and sloped rims are handled.
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "flatscan/calibration/stereo_rig.h"
@@ -44,15 +47,28 @@ struct BottomPoint {
   Eigen::Vector3d rect1;     // the bottom-edge point, rectified frame 1, mm
   int left_edge = 0;         // 0: the left camera saw the bottom edge, 1: the top edge
   int right_edge = 0;
+  // Per camera, the sine of the angle between its line of sight and the side face
+  // (positive: the camera is on the outer side and sees the bottom edge). Near a sign
+  // change along the rim the silhouette runs along the face's vertical generator and
+  // is neither edge.
+  double facing_left = 0, facing_right = 0;
+  // Per camera, the length (mm, along the rim) over which the side face's vertical
+  // generator can cover the silhouette: t times the tangent of the viewing angle.
+  double generator_left_mm = 0, generator_right_mm = 0;
   bool valid = false;
 };
 
-// `normal_left`: the crossing's unit image normal in the left rectified image (dark ->
-// bright, i.e. pointing out of the material); `up_rect1`: the support plane's normal
-// (toward the cameras) in rectified frame 1; `thickness`: height of the side face
-// (sheet thickness, plus wall height for folded walls), mm.
-BottomPoint TriangulateBottomPoint(const RectifiedStereo& stereo, double u_left, double u_right, double row,
-                                   const Eigen::Vector2d& normal_left, const Eigen::Vector3d& up_rect1,
-                                   double thickness);
+// `u_left`, `row`: the left crossing (rectified); `normal_left`: its unit image normal
+// (dark -> bright, i.e. pointing out of the material); `right_silhouette`: the right
+// silhouette near the matched crossing, rectified frame 2, in chain order;
+// `u_right`: the matched right crossing on the row; `side_rect1`: the direction of
+// the side face in rectified frame 1 (bottom to top edge, toward the cameras: the
+// support normal for a part lying flat, the part's own normal for a tilted one); `thickness`: height of the side face (sheet
+// thickness, plus wall height for folded walls), mm. Invalid when the right
+// silhouette polyline does not reach the point.
+BottomPoint TriangulateBottomPoint(const RectifiedStereo& stereo, double u_left, double row,
+                                   const Eigen::Vector2d& normal_left,
+                                   const std::vector<Eigen::Vector2d>& right_silhouette, double u_right,
+                                   const Eigen::Vector3d& side_rect1, double thickness);
 
 }  // namespace flatscan
