@@ -117,7 +117,26 @@ double InverseNormalCdf(double p) {
   return 0.5 * (lo + hi);
 }
 
+std::vector<ShotJob> RepeatJobs(const Station& station, const RepeatStudyOptions& options) {
+  Random rng(options.seed);
+  const PartGeometry geometry = WithFlatness(SamplePartGeometry(station.scene.part, rng), options.flatness_mm);
+  const SimulatedPart part = PlaceSimulatedPart(WithShots(station, options.shots), 0, geometry, rng);
+  std::vector<ShotJob> jobs;
+  for (size_t s = 0; s < part.shots.size(); ++s)
+    jobs.push_back({fmt::format("shot_{:03d}", s), part.geometry, part.shots[s], Random::DeriveSeed(options.seed ^ 0x7AB1E1ull, s)});
+  return jobs;
+}
+
+RenderedPart Rendered(const CalibratedStation& station, const ShotJob& job, int index) {
+  const auto [left, right] = RenderShot(station, job);
+  return {SimulatedPart{index, job.geometry, {job.shot}}, left, right};
+}
+
 }  // namespace
+
+RenderedPart RenderRepeatShot(const CalibratedStation& station, const RepeatStudyOptions& options, int index) {
+  return Rendered(station, RepeatJobs(station.truth, options).at(index), index);
+}
 
 ErrorSummary SummarizeErrors(std::vector<double> errors) {
   ErrorSummary s;
@@ -141,14 +160,10 @@ RepeatStudy RunRepeatStudy(const CalibratedStation& station, const RepeatStudyOp
                            const StudyProgress& progress) {
   if (options.shots < 2) ThrowInputError("--shots: expected at least 2 shots, got {}", options.shots);
   if (!(options.flatness_mm > 0)) ThrowInputError("--true-flatness: expected a value > 0 mm, got {}", options.flatness_mm);
-  Random rng(options.seed);
+  const std::vector<ShotJob> jobs = RepeatJobs(station.truth, options);
   RepeatStudy study;
-  study.geometry = WithFlatness(SamplePartGeometry(station.truth.scene.part, rng), options.flatness_mm);
-  const SimulatedPart part = PlaceSimulatedPart(WithShots(station.truth, options.shots), 0, study.geometry, rng);
-  study.true_flatness_mm = part.shots.front().truth.flatness_mm;
-  std::vector<ShotJob> jobs;
-  for (size_t s = 0; s < part.shots.size(); ++s)
-    jobs.push_back({fmt::format("shot_{:03d}", s), part.geometry, part.shots[s], Random::DeriveSeed(options.seed ^ 0x7AB1E1ull, s)});
+  study.geometry = jobs.front().geometry;
+  study.true_flatness_mm = jobs.front().shot.truth.flatness_mm;
   study.shots = MeasureShots(station, jobs, options, progress);
 
   std::vector<double> values;
@@ -234,9 +249,7 @@ ShotJob BatchJob(const Station& one_shot, const BatchStudyOptions& options, int 
 }  // namespace
 
 RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyOptions& options, int index) {
-  const ShotJob job = BatchJob(WithShots(station.truth, 1), options, index);
-  const auto [left, right] = RenderShot(station, job);
-  return {SimulatedPart{index, job.geometry, {job.shot}}, left, right};
+  return Rendered(station, BatchJob(WithShots(station.truth, 1), options, index), index);
 }
 
 BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,

@@ -74,6 +74,14 @@ struct RepeatStudy {
 RepeatStudy RunRepeatStudy(const CalibratedStation& station, const RepeatStudyOptions& options,
                            const StudyProgress& progress = {});
 
+// A shot or part of a study rendered again (the same images the study inspected), to
+// look at it after the fact.
+struct RenderedPart {
+  SimulatedPart part;  // geometry and its one shot (pose and truth)
+  cv::Mat1b left, right;
+};
+RenderedPart RenderRepeatShot(const CalibratedStation& station, const RepeatStudyOptions& options, int index);
+
 // --- batch study (Table 2) ---
 // Flatness of a production lot: log-normal, with the median set so that a fraction
 // `beyond_fraction` lies above the tolerance, and `log_spread` the standard deviation
@@ -132,12 +140,6 @@ struct BatchStudy {
 BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,
                          const StudyProgress& progress = {});
 
-// Part `index` of the batch study with `options`, rendered again (the same images the
-// study inspected), to look at a part after the fact.
-struct RenderedPart {
-  SimulatedPart part;  // geometry and its one shot (pose and truth)
-  cv::Mat1b left, right;
-};
 RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyOptions& options, int index);
 
 }  // namespace flatscan

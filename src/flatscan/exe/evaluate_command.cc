@@ -54,8 +54,8 @@ class EvaluateCommand : public Command {
         ->default_val(0.8)->check(CLI::Range(0.05, 3.0));
     sub_->add_option("--calib-poses", calib_poses_, "chessboard pairs for the rig calibration")->default_val(14)->check(CLI::Range(3, 200));
     sub_->add_option("--save-worst", save_worst_,
-                     "write the image pairs and truth of the N batch parts with the largest |error| (and any not "
-                     "measured) to OUT/worst/, to look at with `flatscan inspect`")
+                     "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
+                     "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
         ->default_val(0)->check(CLI::NonNegativeNumber);
     sub_->add_flag("--no-thickness-correction", no_correction_, "inspect as if the sheet had no thickness");
   }
@@ -90,6 +90,8 @@ class EvaluateCommand : public Command {
       md += part;
       json["repeat"] = RepeatJson(study, repeat_options_);
       WriteImage((root / "repeat_shots.png").string(), RepeatShotsChart(study));
+      if (save_worst_ > 0)
+        SaveWorstParts(station, study.shots, root / "worst_repeat", [&](int i) { return RenderRepeatShot(station, repeat_options_, i); });
       WriteImage((root / "repeat_error_histogram.png").string(),
                  ErrorHistogramChart(study.shots, 2 * std::sqrt(study.variance_mm2), "Repeat study: flatness error of each shot"));
     }
@@ -100,7 +102,8 @@ class EvaluateCommand : public Command {
       md += part;
       json["batch"] = BatchJson(study, batch_options_);
       WriteImage((root / "batch_measured_vs_true.png").string(), MeasuredVsTrueChart(study, tolerance_));
-      if (save_worst_ > 0) SaveWorstParts(station, study, root / "worst");
+      if (save_worst_ > 0)
+        SaveWorstParts(station, study.parts, root / "worst", [&](int i) { return RenderBatchPart(station, batch_options_, i); });
       WriteImage((root / "batch_error_histogram.png").string(),
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
     }
@@ -125,18 +128,19 @@ class EvaluateCommand : public Command {
   int save_worst_ = 0;
 
   // The worst parts' pairs, pairs.csv and truth.json (rim in the camera-1 frame).
-  void SaveWorstParts(const CalibratedStation& station, const BatchStudy& study, const std::filesystem::path& dir) const {
-    std::vector<int> order(study.parts.size());
+  void SaveWorstParts(const CalibratedStation& station, const std::vector<PartMeasurement>& parts,
+                      const std::filesystem::path& dir, const std::function<RenderedPart(int)>& render) const {
+    std::vector<int> order(parts.size());
     std::iota(order.begin(), order.end(), 0);
-    const auto badness = [&](int i) { return study.parts[i].measured ? std::abs(study.parts[i].ErrorMm()) : 1e9; };
+    const auto badness = [&](int i) { return parts[i].measured ? std::abs(parts[i].ErrorMm()) : 1e9; };
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return badness(a) > badness(b); });
     order.resize(std::min<size_t>(order.size(), save_worst_));
     std::filesystem::create_directories(dir);
     std::string csv = "id,left,right\n";
     nlohmann::json truth = nlohmann::json::array();
     for (int i : order) {
-      const PartMeasurement& m = study.parts[i];
-      const RenderedPart r = RenderBatchPart(station, batch_options_, i);
+      const PartMeasurement& m = parts[i];
+      const RenderedPart r = render(i);
       WriteImage((dir / (m.id + "_left.png")).string(), r.left);
       WriteImage((dir / (m.id + "_right.png")).string(), r.right);
       csv += fmt::format("{0},{0}_left.png,{0}_right.png\n", m.id);
