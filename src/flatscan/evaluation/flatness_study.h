@@ -33,7 +33,7 @@ struct PartMeasurement {
   FlatnessValues values;     // measured
   double coverage = 0;
   int valid_points = 0;
-  double inspect_ms = 0;     // InspectPart on the decoded pair (wall clock)
+  double inspect_ms = 0;     // InspectPart on the decoded pair (CPU time of its one thread)
   bool pass = false;         // measured verdict
   double ErrorMm() const { return values.flatness_mm - true_flatness_mm; }
 };

@@ -80,8 +80,8 @@ std::string RepeatMarkdown(const RepeatStudy& st, const RepeatStudyOptions& o) {
                     st.mean_mm, st.variance_mm2, Percent(st.relative_error), st.median_inspect_ms);
   md += fmt::format("{} of {} shots measured; SD {:.2f} um; ", st.measured, o.shots, 1000 * std::sqrt(st.variance_mm2));
   md += ErrorLine(st.errors);
-  md += "Time per part: median InspectPart wall time on the decoded pair (the paper's figure includes its whole "
-        "processing).\n";
+  md += "Time per part: median CPU time of the inspection (one thread) from the decoded pair; the paper's figure is "
+        "its whole processing per part.\n";
   return md;
 }
 
@@ -125,7 +125,7 @@ std::string BatchMarkdown(const BatchStudy& st, const BatchStudyOptions& o) {
       "Measurement uncertainty U (95th percentile of |error|): {:.2f} um. With a guard band of U, {} parts measured within "
       "U of the tolerance are marginal ({} of the {} wrong verdicts among them); the other {} decided parts are {} right.\n",
       1000 * st.uncertainty_mm, g.marginal, g.wrong_marginal, c.fp + c.fn, g.decided, Percent(g.decided_accuracy));
-  md += fmt::format("Time per part: median InspectPart wall time {:.1f} ms.\n", st.median_inspect_ms);
+  md += fmt::format("Time per part: median inspection CPU time (one thread) {:.1f} ms.\n", st.median_inspect_ms);
   return md;
 }
 
