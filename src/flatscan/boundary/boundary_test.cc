@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "flatscan/boundary/canny.h"
 #include "flatscan/boundary/zernike.h"
 #include "flatscan/simulation/coverage_renderer.h"
 #include "flatscan/simulation/image_formation.h"
@@ -121,6 +122,44 @@ TEST(Boundary, CrossRowsInterpolatesTheChainAtEveryRow) {
     EXPECT_NEAR(rc.x, c.x() + 5 + (rc.x > c.x() + 5 ? 1 : -1) * std::sqrt(400.0 - dy * dy), 0.05) << rc.row;
   }
   EXPECT_EQ(shifted_count, 2 * (58 - 23 + 1));
+}
+
+TEST(Boundary, FusedCannyGivesCvCannysEdgeSet) {
+  // Random blurred shapes and noise, with a constant 3 px frame so that cv::Canny's
+  // border handling plays no part.
+  cv::RNG rng(5);
+  for (int trial = 0; trial < 4; ++trial) {
+    cv::Mat1b img(157 + trial, 203 + 3 * trial, uint8_t(120));
+    for (int i = 0; i < 40; ++i)
+      cv::circle(img, cv::Point(rng.uniform(0, img.cols), rng.uniform(0, img.rows)), rng.uniform(2, 30),
+                 rng.uniform(0, 256), i % 2 ? cv::FILLED : 2, cv::LINE_AA);
+    cv::GaussianBlur(img, img, cv::Size(5, 5), 0.8 + 0.2 * trial);
+    cv::Mat1s noise(img.size());
+    rng.fill(noise, cv::RNG::NORMAL, 0, 2 + trial);
+    cv::add(img, noise, img, cv::noArray(), CV_8U);
+    img.rowRange(0, 3).setTo(120), img.rowRange(img.rows - 3, img.rows).setTo(120);
+    img.colRange(0, 3).setTo(120), img.colRange(img.cols - 3, img.cols).setTo(120);
+    for (const auto& [low, high] : {std::pair{40.0, 100.0}, std::pair{10.0, 30.0}, std::pair{70.5, 70.5}}) {
+      cv::Mat1b expected;
+      cv::Canny(img, expected, low, high, 3, true);
+      cv::Mat1b map(img.rows + 2, img.cols + 2, uint8_t(7));
+      std::vector<uint8_t*> stack;
+      const cv::Rect rect(1, 1, img.cols - 2, img.rows - 2);
+      CannyInto(img, rect, CannyThresholds::FromL2(low, high), map.ptr<uint8_t>(2) + 2, map.step1(), stack);
+      int differences = 0, edges = 0;
+      for (int v = 0; v < img.rows; ++v)
+        for (int u = 0; u < img.cols; ++u) {
+          const bool ours = rect.contains({u, v}) && map(v + 1, u + 1) == kCannyEdge;
+          differences += ours != (expected(v, u) != 0);
+          edges += ours;
+        }
+      EXPECT_EQ(differences, 0) << trial << " " << low;
+      EXPECT_GT(edges, 300) << trial << " " << low;
+      // The frame is set, the rest of the map is untouched.
+      EXPECT_EQ(map(1, 5), kCannyNone);
+      EXPECT_EQ(map(0, 5), 7);
+    }
+  }
 }
 
 TEST(Boundary, BadImagesAreRejectedWithAMessage) {

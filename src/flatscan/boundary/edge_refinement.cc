@@ -154,7 +154,7 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
   const float reach = 3.0f * sig + 1.0f;
   const NormalCdfTable& cdf = NormalCdf();
   float x0 = x, b = values[0], h = total;
-  for (int iter = 0; iter < 3; ++iter) {
+  for (int iter = 0; iter < 1; ++iter) {
     // J columns: (h phi / sigma) for -x0, 1 for b, Phi for h.
     double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
     for (int k = 0; k < kValues; ++k) {
