@@ -61,9 +61,23 @@ void GradientRow(const cv::Mat1b& image, int v, int u0, int u1, int16_t* dx, int
 // Non-maximum suppression of one row (cv::Canny's rules). `prev`, `cur`, `next`:
 // magnitudes of the rows above, at and below, indexed by column with [-1] and [w]
 // valid; dx, dy at the row's columns 0..w-1.
+// The row above in `map` (map - map_step) is final but for later growth; a weak
+// maximum touching an edge pixel above becomes an edge (and is pushed) at once.
 void SuppressRow(const int32_t* prev, const int32_t* cur, const int32_t* next, const int16_t* dx,
-                 const int16_t* dy, int w, const CannyThresholds& t, uint8_t* map, std::vector<uint8_t*>& stack) {
+                 const int16_t* dy, int w, const CannyThresholds& t, uint8_t* map, std::ptrdiff_t map_step,
+                 std::vector<uint8_t*>& stack) {
   constexpr int kTan22 = 13573;  // tan(22.5 deg) * 2^15, as cv::Canny
+  // A local maximum above the low threshold: an edge pixel if strong or touching
+  // one in the row above, else weak.
+  auto keep = [&](int j) {
+    const uint8_t* above = map + j - map_step;
+    if (cur[j] > t.high || above[-1] == kCannyEdge || above[0] == kCannyEdge || above[1] == kCannyEdge) {
+      map[j] = kCannyEdge;
+      stack.push_back(map + j);
+    } else {
+      map[j] = kCannyWeak;
+    }
+  };
   auto decide = [&](int j) {
     const int m = cur[j];
     if (m <= t.low) {
@@ -84,25 +98,44 @@ void SuppressRow(const int32_t* prev, const int32_t* cur, const int32_t* next, c
     }
     if (!maximum) {
       map[j] = kCannyNone;
-    } else if (m > t.high) {
-      map[j] = kCannyEdge;
-      stack.push_back(map + j);
-    } else {
-      map[j] = kCannyWeak;
+      return;
     }
+    keep(j);
   };
   int j = 0;
 #if CV_SIMD128
   const cv::v_int32x4 low = cv::v_setall_s32(t.low);
   const cv::v_uint8x16 none = cv::v_setall_u8(kCannyNone);
+  const cv::v_int32x4 tan22 = cv::v_setall_s32(kTan22), zero = cv::v_setzero_s32();
+  // Lanes that are local maxima across the edge and above the low threshold, for 4
+  // pixels from j (the same sectors and ties as `decide`).
+  auto maxima4 = [&](int j) {
+    using namespace cv;
+    const v_int32x4 m = v_load(cur + j);
+    const v_int32x4 gx = v_load_expand(dx + j), gy = v_load_expand(dy + j);
+    const v_int32x4 xs = v_reinterpret_as_s32(v_abs(gx)), y = v_shl<15>(v_reinterpret_as_s32(v_abs(gy)));
+    const v_int32x4 tg22x = xs * tan22;
+    const v_int32x4 horizontal = y < tg22x, vertical = y > tg22x + v_shl<16>(xs);
+    const v_int32x4 negative = (gx ^ gy) < zero;
+    const v_int32x4 a = v_select(horizontal, v_load(cur + j - 1),
+                                 v_select(vertical, v_load(prev + j),
+                                          v_select(negative, v_load(prev + j + 1), v_load(prev + j - 1))));
+    const v_int32x4 b = v_select(horizontal, v_load(cur + j + 1),
+                                 v_select(vertical, v_load(next + j),
+                                          v_select(negative, v_load(next + j - 1), v_load(next + j + 1))));
+    // Ties with the second neighbour count along rows and columns, not on diagonals.
+    const v_int32x4 second = (m > b) | ((horizontal | vertical) & (m == b));
+    return (m > a) & second & (m > low);
+  };
   for (; j + 16 <= w; j += 16) {
-    const cv::v_int32x4 above = (cv::v_load(cur + j) > low) | (cv::v_load(cur + j + 4) > low) |
-                                (cv::v_load(cur + j + 8) > low) | (cv::v_load(cur + j + 12) > low);
-    if (!cv::v_check_any(above)) {
-      cv::v_store(map + j, none);
-      continue;
-    }
-    for (int k = j; k < j + 16; ++k) decide(k);
+    const cv::v_int16x8 above0 = cv::v_pack(cv::v_load(cur + j) > low, cv::v_load(cur + j + 4) > low);
+    const cv::v_int16x8 above1 = cv::v_pack(cv::v_load(cur + j + 8) > low, cv::v_load(cur + j + 12) > low);
+    cv::v_store(map + j, none);
+    if (!cv::v_check_any(cv::v_pack(above0, above1))) continue;
+    const cv::v_int16x8 max0 = cv::v_pack(maxima4(j), maxima4(j + 4));
+    const cv::v_int16x8 max1 = cv::v_pack(maxima4(j + 8), maxima4(j + 12));
+    for (unsigned mask = static_cast<unsigned>(cv::v_signmask(cv::v_pack(max0, max1))); mask; mask &= mask - 1)
+      keep(j + __builtin_ctz(mask));
   }
 #endif
   for (; j < w; ++j) decide(j);
@@ -149,6 +182,7 @@ void CannyInto(const cv::Mat1b& image, const cv::Rect& rect, const CannyThreshol
   std::memset(map - map_step - 1, kCannyNone, ext);
   std::memset(map + h * map_step - 1, kCannyNone, ext);
   stack.clear();
+  const std::ptrdiff_t s = map_step;
   compute(rect.y - 1, 0);
   compute(rect.y, 1);
   for (int i = 0; i < h; ++i) {
@@ -157,18 +191,27 @@ void CannyInto(const cv::Mat1b& image, const cv::Rect& rect, const CannyThreshol
     const size_t p = row(i % 3), c = row((i + 1) % 3), n = row((i + 2) % 3);
     uint8_t* out = map + i * map_step;
     out[-1] = out[w] = kCannyNone;
-    SuppressRow(&mag[p], &mag[c], &mag[n], &dx[c], &dy[c], w, thresholds, out, stack);
-  }
-  // Hysteresis: grow the strong pixels through the weak ones (8-connected).
-  const std::ptrdiff_t s = map_step;
-  while (!stack.empty()) {
-    uint8_t* m = stack.back();
-    stack.pop_back();
-    for (const std::ptrdiff_t o : {-s - 1, -s, -s + 1, std::ptrdiff_t{-1}, std::ptrdiff_t{1}, s - 1, s, s + 1})
-      if (m[o] == kCannyWeak) {
-        m[o] = kCannyEdge;
-        stack.push_back(m + o);
-      }
+    SuppressRow(&mag[p], &mag[c], &mag[n], &dx[c], &dy[c], w, thresholds, out, map_step, stack);
+    // Hysteresis, row by row while the rows are in cache: grow the edge pixels through
+    // the weak ones (8-connected) over the rows decided so far (0 .. i); row i + 1
+    // looks up at row i when it is suppressed. Growth may run up any number of rows.
+    const uint8_t* last_row = out - 1;  // from its frame byte on
+    while (!stack.empty()) {
+      uint8_t* m = stack.back();
+      stack.pop_back();
+      const bool bottom = m >= last_row;
+      for (const std::ptrdiff_t o : {-s - 1, -s, -s + 1, std::ptrdiff_t{-1}, std::ptrdiff_t{1}})
+        if (m[o] == kCannyWeak) {
+          m[o] = kCannyEdge;
+          stack.push_back(m + o);
+        }
+      if (bottom) continue;
+      for (const std::ptrdiff_t o : {s - 1, s, s + 1})
+        if (m[o] == kCannyWeak) {
+          m[o] = kCannyEdge;
+          stack.push_back(m + o);
+        }
+    }
   }
 }
 

@@ -11,27 +11,17 @@ namespace {
 
 constexpr int kHalfWindow = 5;  // differences taken over +-5 px around the pixel
 
-// exp(-x^2 / 2) on a table (x in [0, 8], step 1/64) with linear interpolation.
-class GaussTable {
- public:
-  GaussTable() {
-    for (size_t i = 0; i < values_.size(); ++i) values_[i] = static_cast<float>(std::exp(-0.5 * std::pow(i / 64.0, 2)));
+// w[k] = exp(-(t0 + k)^2 a) for k = 0 .. n-1, by the recurrence
+// w[k+1] = w[k] r[k], r[k+1] = r[k] exp(-2a): three exponentials instead of n.
+inline void GaussianWeights(float t0, float a, int n, float* w) {
+  float wk = std::exp(-a * t0 * t0);
+  float r = std::exp(-a * (2.0f * t0 + 1.0f));
+  const float q = std::exp(-2.0f * a);
+  for (int k = 0; k < n; ++k) {
+    w[k] = wk;
+    wk *= r;
+    r *= q;
   }
-  float operator()(float x) const {
-    const float a = std::abs(x) * 64.0f;
-    if (a >= values_.size() - 1) return 0.0f;
-    const int i = static_cast<int>(a);
-    const float f = a - i;
-    return values_[i] + f * (values_[i + 1] - values_[i]);
-  }
-
- private:
-  std::array<float, 8 * 64 + 2> values_;
-};
-
-const GaussTable& Gauss() {
-  static const GaussTable table;
-  return table;
 }
 
 // Standard normal CDF and density on [-8, 8], step 1/128, linear interpolation.
@@ -94,7 +84,7 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
     return out;
   const ptrdiff_t stride = axis.du + axis.dv * static_cast<ptrdiff_t>(image.step1());
   const uint8_t* p = image.ptr<uint8_t>(v) + u - kHalfWindow * stride;
-  float values[kValues], d[kDiffs];
+  float values[kValues], d[kDiffs], w[kDiffs];
   for (int k = 0; k < kValues; ++k) values[k] = p[k * stride];
   for (int k = 0; k < kDiffs; ++k) d[k] = values[k + 1] - values[k];
   // Start at the unweighted centroid of the central +-2 differences.
@@ -106,16 +96,17 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
   if (sum <= 0) return out;
   float x = std::clamp(first / sum, -1.0f, 1.0f);  // in steps from the pixel
   const float inv = static_cast<float>(axis.Length() / window_sigma);
-  const GaussTable& gauss = Gauss();
+  const float a = 0.5f * inv * inv;
+  constexpr float kPos0 = -kHalfWindow + 0.5f;  // position of d[0]
   // With the likelihood fit to follow, one centroid step is start enough.
   const int centroid_iterations = profile_sigma > 0 ? 1 : 4;
   for (int iter = 0; iter < centroid_iterations; ++iter) {
+    GaussianWeights(kPos0 - x, a, kDiffs, w);
     float sw = 0, sx = 0;
     for (int k = 0; k < kDiffs; ++k) {
-      const float pos = k - kHalfWindow + 0.5f;
-      const float w = gauss((pos - x) * inv) * d[k];
-      sw += w;
-      sx += w * pos;
+      const float wd = w[k] * d[k];
+      sw += wd;
+      sx += wd * (kPos0 + k);
     }
     if (sw <= 0) return out;
     const float next = std::clamp(sx / sw, -2.0f, 2.0f);
@@ -123,8 +114,7 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
     x = next;
     if (done) break;
   }
-  float total = 0;
-  for (int k = 0; k < kDiffs; ++k) total += d[k];
+  const float total = values[kValues - 1] - values[0];  // sum of the differences
   out.position = x;
   out.step = total;
   out.valid = std::abs(x) <= 1.5f && total > 0;
@@ -134,12 +124,13 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
     // edges and far noise out; for a Gaussian profile of variance v the windowed
     // moment is 1 / (1/v + 1/sigma_e^2), inverted here.
     const float inv_e = static_cast<float>(axis.Length() / 2.5);
+    GaussianWeights(kPos0 - x, 0.5f * inv_e * inv_e, kDiffs, w);
     float sw = 0, m2 = 0;
     for (int k = 0; k < kDiffs; ++k) {
-      const float pos = k - kHalfWindow + 0.5f - x;
-      const float w = gauss(pos * inv_e) * d[k];
-      sw += w;
-      m2 += w * pos * pos;
+      const float pos = kPos0 + k - x;
+      const float wd = w[k] * d[k];
+      sw += wd;
+      m2 += wd * pos * pos;
     }
     const double inverse = m2 > 0 ? sw / m2 - inv_e * inv_e : 0.0;
     // In px^2 along the axis, without the differencing's own box (length L: L^2 / 12).
@@ -147,41 +138,39 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
   }
   if (profile_sigma <= 0) return out;
   // Maximum-likelihood refinement: fit I_k = b + h Phi((k - x0) / sigma) to the pixel
-  // values within 3 sigma + 1 of the crossing (Gauss-Newton on x0, b, h; the 3x3
-  // normal equations solved by Cramer's rule).
+  // values within 3 sigma + 1 of the crossing. From the centroid one Gauss-Newton
+  // step on (x0, b, h) is enough (the centroid is within a few hundredths of a pixel,
+  // and the step's error is quadratic in that); the 3x3 normal equations are solved
+  // by Cramer's rule.
   const float sig = static_cast<float>(profile_sigma / axis.Length());  // in steps
   const float inv_sig = 1.0f / sig;
   const float reach = 3.0f * sig + 1.0f;
+  const int k_lo = std::max(0, static_cast<int>(std::ceil(x - reach)) + kHalfWindow);
+  const int k_hi = std::min(kValues - 1, static_cast<int>(std::floor(x + reach)) + kHalfWindow);
   const NormalCdfTable& cdf = NormalCdf();
-  float x0 = x, b = values[0], h = total;
-  for (int iter = 0; iter < 1; ++iter) {
-    // J columns: (h phi / sigma) for -x0, 1 for b, Phi for h.
-    double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
-    for (int k = 0; k < kValues; ++k) {
-      const float pos = k - kHalfWindow;
-      if (std::abs(pos - x0) > reach) continue;
-      const float z = (pos - x0) * inv_sig;
-      float cdf_z, pdf_z;
-      cdf.Lookup(z, &cdf_z, &pdf_z);
-      const float r = values[k] - b - h * cdf_z;
-      const float j0 = h * pdf_z * inv_sig;
-      a00 += j0 * j0, a01 += j0, a02 += j0 * cdf_z;
-      a11 += 1.0, a12 += cdf_z, a22 += cdf_z * cdf_z;
-      r0 += j0 * r, r1 += r, r2 += cdf_z * r;
-    }
-    const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
-    const double det = a00 * c00 + a01 * c01 + a02 * c02;
-    if (!(std::abs(det) > 1e-12)) return out;
-    const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
-    const double s0 = (c00 * r0 + c01 * r1 + c02 * r2) / det;
-    const double s1 = (c01 * r0 + c11 * r1 + c12 * r2) / det;
-    const double s2 = (c02 * r0 + c12 * r1 + c22 * r2) / det;
-    x0 -= static_cast<float>(s0);
-    b += static_cast<float>(s1);
-    h += static_cast<float>(s2);
-    if (std::abs(x0 - x) > 1.0f || h <= 0) return out;  // not a clean step: keep the centroid
-    if (std::abs(s0) < 1e-4) break;
+  const float h = total, b = values[0];
+  // J columns: (h phi / sigma) for -x0, 1 for b, Phi for h.
+  float a00 = 0, a01 = 0, a02 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
+  const float scale = h * inv_sig;
+  for (int k = k_lo; k <= k_hi; ++k) {
+    const float z = (k - kHalfWindow - x) * inv_sig;
+    float cdf_z, pdf_z;
+    cdf.Lookup(z, &cdf_z, &pdf_z);
+    const float r = values[k] - b - h * cdf_z;
+    const float j0 = scale * pdf_z;
+    a00 += j0 * j0, a01 += j0, a02 += j0 * cdf_z;
+    a12 += cdf_z, a22 += cdf_z * cdf_z;
+    r0 += j0 * r, r1 += r, r2 += cdf_z * r;
   }
+  const double a11 = k_hi - k_lo + 1;
+  const double c00 = a11 * a22 - double(a12) * a12, c01 = double(a02) * a12 - double(a01) * a22,
+               c02 = double(a01) * a12 - a02 * a11;
+  const double det = a00 * c00 + a01 * c01 + a02 * c02;
+  if (!(std::abs(det) > 1e-12)) return out;
+  const double s0 = (c00 * r0 + c01 * r1 + c02 * r2) / det;
+  const double s2 = (c02 * r0 + (double(a01) * a02 - double(a00) * a12) * r1 + (double(a00) * a11 - double(a01) * a01) * r2) / det;
+  const float x0 = x - static_cast<float>(s0);
+  if (std::abs(x0 - x) > 1.0f || h + s2 <= 0) return out;  // not a clean step: keep the centroid
   out.position = x0;
   return out;
 }
@@ -191,46 +180,66 @@ void SmoothAndCorrectChain(std::vector<ChainPoint>& chain, bool closed, double b
   constexpr int kHalf = 6;
   if (n < 5) return;
   const int half = std::min(kHalf, (n - 1) / 2);
-  std::vector<ChainPoint> out = chain;
-  auto at = [&](int j) -> const ChainPoint& { return chain[((j % n) + n) % n]; };
+  // The input positions, with `half` wrapped points before and after a closed chain:
+  // xs[j + half] is point j (j in -half .. n + half - 1 when closed).
+  thread_local std::vector<double> xs, ys;
+  const int pad = closed ? half : 0;
+  xs.resize(n + 2 * pad);
+  ys.resize(n + 2 * pad);
+  for (int k = 0; k < n + 2 * pad; ++k) {
+    int j = k - pad;
+    j = j < 0 ? j + n : j >= n ? j - n : j;
+    xs[k] = chain[j].p.x();
+    ys[k] = chain[j].p.y();
+  }
   for (int i = 0; i < n; ++i) {
     int lo = i - half, hi = i + half;
     if (!closed) {  // shift the window inside an open chain
       if (lo < 0) hi -= lo, lo = 0;
       if (hi >= n) lo -= hi - n + 1, hi = n - 1;
     }
+    const double* px = xs.data() + pad;
+    const double* py = ys.data() + pad;
+    const double xi = px[i], yi = py[i];
     // Local frame at point i: tangent along the chord of the window's central part.
-    const Eigen::Vector2d chord = at(std::min(i + 2, hi)).p - at(std::max(i - 2, lo)).p;
-    if (chord.squaredNorm() < 1e-12) continue;
-    const Eigen::Vector2d t = chord.normalized();
-    Eigen::Vector2d nrm(-t.y(), t.x());
-    if (nrm.dot(chain[i].normal) < 0) nrm = -nrm;
+    const int c0 = std::max(i - 2, lo), c1 = std::min(i + 2, hi);
+    double tx = px[c1] - px[c0], ty = py[c1] - py[c0];
+    const double chord2 = tx * tx + ty * ty;
+    if (chord2 < 1e-12) continue;
+    const double inv_chord = 1.0 / std::sqrt(chord2);
+    tx *= inv_chord, ty *= inv_chord;
+    double nx = -ty, ny = tx;
+    if (nx * chain[i].normal.x() + ny * chain[i].normal.y() < 0) nx = -nx, ny = -ny;
     // Circle (or line) through the window, linear in (a, b, c):
     //   eta = a + b tau + c (tau^2 + eta^2),
     // exact for circles of any radius and for lines (c = 0); its curvature is
     // 2c / sqrt(1 + b^2) at tau = 0.
-    double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
+    double a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
     for (int j = lo; j <= hi; ++j) {
-      const Eigen::Vector2d d = at(j).p - chain[i].p;
-      const double tau = d.dot(t), eta = d.dot(nrm), q = tau * tau + eta * eta;
-      a00 += 1, a01 += tau, a02 += q, a11 += tau * tau, a12 += tau * q, a22 += q * q;
+      const double dx = px[j] - xi, dy = py[j] - yi;
+      const double tau = dx * tx + dy * ty, eta = dx * nx + dy * ny, q = tau * tau + eta * eta;
+      a01 += tau, a02 += q, a11 += tau * tau, a12 += tau * q, a22 += q * q;
       r0 += eta, r1 += tau * eta, r2 += q * eta;
     }
+    const double a00 = hi - lo + 1;
     const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
     const double det = a00 * c00 + a01 * c01 + a02 * c02;
     if (!(std::abs(det) > 1e-12 * (1 + a22 * a11))) continue;
     const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
-    const double a = (c00 * r0 + c01 * r1 + c02 * r2) / det;
-    const double b = (c01 * r0 + c11 * r1 + c12 * r2) / det;
-    const double c = (c02 * r0 + c12 * r1 + c22 * r2) / det;
+    const double inv_det = 1.0 / det;
+    const double a = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
+    const double b = (c01 * r0 + c11 * r1 + c12 * r2) * inv_det;
+    const double c = (c02 * r0 + c12 * r1 + c22 * r2) * inv_det;
     const double eta0 = a + c * a * a;  // the circle's eta at tau = 0 (|a| << 1 / c)
-    const double half_curvature = c / std::sqrt(1 + b * b);
-    const Eigen::Vector2d normal = (nrm - b * t).normalized();
-    out[i].p = chain[i].p + (eta0 - half_curvature * blur_variance) * nrm;
-    out[i].normal = normal;
-    out[i].curvature = 2 * half_curvature;
+    const double inv_len = 1.0 / std::sqrt(1 + b * b);
+    const double half_curvature = c * inv_len;
+    const double shift = eta0 - half_curvature * blur_variance;
+    ChainPoint& out = chain[i];
+    out.p = Eigen::Vector2d(xi + shift * nx, yi + shift * ny);
+    // (nrm - b t) / |nrm - b t|, with |nrm - b t| = sqrt(1 + b^2).
+    out.normal = Eigen::Vector2d((nx - b * tx) * inv_len, (ny - b * ty) * inv_len);
+    out.curvature = 2 * half_curvature;
   }
-  chain.swap(out);
 }
 
 double EstimateBlurVariance(const std::vector<ProfileCrossing>& profiles, const std::vector<double>& axis_components) {
