@@ -254,32 +254,68 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
   // The window's width follows the blur, so that the centroid's curvature response is
   // the one the correction assumes (edge_refinement.h).
   const double window_sigma = std::max(1.2, kWindowPerBlurSigma * std::sqrt(blur_variance));
-  std::vector<std::vector<ChainPoint>> chains;
+  result.blur_sigma_px = std::sqrt(std::max(blur_variance - 1.0 / 12.0, 0.0));
+  result.points.reserve(pixel_chains.pixels.size());
+  std::vector<ChainPoint> chain;
+  std::vector<ProfileRequest> requests;
+  std::vector<Eigen::Vector2d> normals;
+  std::vector<ProfileCrossing> crossings;
+  const double blur_sigma = std::sqrt(std::max(blur_variance, 0.0));
   for (int c = 0; c < pixel_chains.size(); ++c) {
     if (pixel_chains.length(c) < options.min_contour_points) continue;
-    std::vector<ChainPoint> chain;
-    chain.reserve(pixel_chains.length(c));
-    for (int i = pixel_chains.begin[c]; i < pixel_chains.begin[c + 1]; ++i) {
-      ChainPoint point;
-      ProfileCrossing profile;
-      if (!MeasurePoint(image, pixel_chains.pixels[i], options, window_sigma, blur_variance, &point, &profile)) continue;
-      if (!chain.empty() && (chain.back().p - point.p).squaredNorm() < 0.25 * 0.25) continue;  // same crossing
+    chain.clear();
+    const Pixel* pixels = &pixel_chains.pixels[pixel_chains.begin[c]];
+    const int count = pixel_chains.length(c);
+    auto add = [&](const ChainPoint& point) {
+      if (!chain.empty() && (chain.back().p - point.p).squaredNorm() < 0.25 * 0.25) return;  // same crossing
       chain.push_back(point);
+    };
+    if (model) {  // the profiles of the whole chain at once (SIMD lanes)
+      requests.clear();
+      normals.clear();
+      for (int i = 0; i < count; ++i) {
+        const Eigen::Vector2d g = SobelGradient(image, pixels[i].u, pixels[i].v);
+        const double norm = g.norm();
+        if (norm <= 0) continue;
+        const Eigen::Vector2d n = g / norm;
+        ProfileRequest q;
+        q.u = pixels[i].u;
+        q.v = pixels[i].v;
+        q.axis = ClosestProfileAxis(n);
+        // The edge profile's sigma along the axis: sigma / cos(normal, axis).
+        const double cosine = std::abs(n.x() * q.axis.du + n.y() * q.axis.dv) / q.axis.Length();
+        q.profile_sigma = static_cast<float>(blur_sigma / cosine);
+        requests.push_back(q);
+        normals.push_back(n);
+      }
+      MeasureProfileCrossings(image, requests, window_sigma, crossings);
+      for (size_t i = 0; i < requests.size(); ++i) {
+        if (!crossings[i].valid) continue;
+        const ProfileRequest& q = requests[i];
+        ChainPoint point;
+        point.axis = q.axis;
+        point.p = Eigen::Vector2d(q.u + crossings[i].position * q.axis.du, q.v + crossings[i].position * q.axis.dv);
+        point.normal = normals[i];
+        point.step = crossings[i].step;
+        add(point);
+      }
+    } else {
+      for (int i = 0; i < count; ++i) {
+        ChainPoint point;
+        ProfileCrossing profile;
+        if (MeasurePoint(image, pixels[i], options, window_sigma, blur_variance, &point, &profile)) add(point);
+      }
     }
-    if (static_cast<int>(chain.size()) >= options.min_contour_points) chains.push_back(std::move(chain));
-  }
-  result.blur_sigma_px = std::sqrt(std::max(blur_variance - 1.0 / 12.0, 0.0));
-
-  for (size_t c = 0; c < chains.size(); ++c) {
-    std::vector<ChainPoint>& chain = chains[c];
+    if (static_cast<int>(chain.size()) < options.min_contour_points) continue;
     const bool closed = chain.size() > 4 && (chain.front().p - chain.back().p).norm() < 2.0;
     if (model) SmoothAndCorrectChain(chain, closed, blur_variance);
     ContourInfo info;
     info.begin = static_cast<int>(result.points.size());
     info.closed = closed;
+    const int id = static_cast<int>(result.contours.size());
     for (size_t i = 0; i < chain.size(); ++i) {
       const ChainPoint& p = chain[i];
-      result.points.push_back({p.p.x(), p.p.y(), p.normal.x(), p.normal.y(), p.step, static_cast<int>(c)});
+      result.points.push_back({p.p.x(), p.p.y(), p.normal.x(), p.normal.y(), p.step, id});
       if (i > 0) info.length_px += (p.p - chain[i - 1].p).norm();
     }
     if (closed) info.length_px += (chain.front().p - chain.back().p).norm();

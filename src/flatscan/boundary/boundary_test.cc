@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "flatscan/boundary/canny.h"
+#include "flatscan/boundary/edge_refinement.h"
 #include "flatscan/boundary/zernike.h"
 #include "flatscan/simulation/coverage_renderer.h"
 #include "flatscan/simulation/image_formation.h"
@@ -160,6 +161,46 @@ TEST(Boundary, FusedCannyGivesCvCannysEdgeSet) {
       EXPECT_EQ(map(0, 5), 7);
     }
   }
+}
+
+TEST(Boundary, BatchedProfileCrossingsMatchOneAtATime) {
+  // Blurred noisy edges in every direction, profiles along every axis, with the blur
+  // given wrong by up to 40%; also pixels too near the border (invalid).
+  const Eigen::Vector2d c(60.2, 59.6);
+  const cv::Mat1b img = RenderShape(
+      120, 120, [&](const Eigen::Vector2d& p) { return (p - c).norm() - 30.0; }, 1.2, 3.0, 9,
+      {c + Eigen::Vector2d(-30, -30), c + Eigen::Vector2d(30, 30)});
+  std::vector<ProfileRequest> requests;
+  cv::RNG rng(2);
+  for (int i = 0; i < 400; ++i) {
+    const double a = 2 * M_PI * i / 400;
+    const Eigen::Vector2d n(std::cos(a), std::sin(a));
+    const Eigen::Vector2d p = c + (30 + rng.uniform(-1.0, 1.0)) * n;
+    ProfileRequest q;
+    q.u = static_cast<int>(std::lround(p.x()));
+    q.v = static_cast<int>(std::lround(p.y()));
+    q.axis = ClosestProfileAxis(n);
+    q.profile_sigma = static_cast<float>(rng.uniform(0.8, 1.7));
+    requests.push_back(q);
+  }
+  requests.push_back({3, 50, ProfileAxis{1, 0}, 1.0f});
+  requests.push_back({50, 116, ProfileAxis{0, 1}, 1.0f});
+  std::vector<ProfileCrossing> batched;
+  MeasureProfileCrossings(img, requests, 1.3, batched);
+  ASSERT_EQ(batched.size(), requests.size());
+  int valid = 0;
+  for (size_t i = 0; i < requests.size(); ++i) {
+    const ProfileRequest& q = requests[i];
+    const ProfileCrossing one = MeasureProfileCrossing(img, q.u, q.v, q.axis, 1.3, q.profile_sigma);
+    ASSERT_EQ(batched[i].valid, one.valid) << i;
+    if (!one.valid) continue;
+    ++valid;
+    EXPECT_NEAR(batched[i].position, one.position, 2e-4) << i;
+    EXPECT_NEAR(batched[i].step, one.step, 1e-3) << i;
+  }
+  EXPECT_GT(valid, 300);
+  EXPECT_FALSE(batched[400].valid);
+  EXPECT_FALSE(batched[401].valid);
 }
 
 TEST(Boundary, BadImagesAreRejectedWithAMessage) {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include <Eigen/Dense>
+#include <opencv2/core/hal/intrin.hpp>
 
 namespace flatscan {
 namespace {
@@ -173,6 +174,154 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
   if (std::abs(x0 - x) > 1.0f || h + s2 <= 0) return out;  // not a clean step: keep the centroid
   out.position = x0;
   return out;
+}
+
+#if CV_SIMD128
+namespace {
+
+// exp(x) in four lanes (Cephes' single-precision polynomial after reduction by ln 2;
+// relative error about 2e-7; x clamped to [-87, 87]).
+inline cv::v_float32x4 Exp4(cv::v_float32x4 x) {
+  using namespace cv;
+  x = v_min(v_max(x, v_setall_f32(-87.0f)), v_setall_f32(87.0f));
+  const v_int32x4 n = v_round(x * v_setall_f32(1.44269504088896341f));
+  const v_float32x4 fn = v_cvt_f32(n);
+  const v_float32x4 r = x - fn * v_setall_f32(0.693359375f) + fn * v_setall_f32(2.12194440e-4f);
+  v_float32x4 p = v_setall_f32(1.9875691500e-4f);
+  p = v_muladd(p, r, v_setall_f32(1.3981999507e-3f));
+  p = v_muladd(p, r, v_setall_f32(8.3334519073e-3f));
+  p = v_muladd(p, r, v_setall_f32(4.1665795894e-2f));
+  p = v_muladd(p, r, v_setall_f32(1.6666665459e-1f));
+  p = v_muladd(p, r, v_setall_f32(5.0000001201e-1f));
+  const v_float32x4 y = v_muladd(p, r * r, r) + v_setall_f32(1.0f);
+  return y * v_reinterpret_as_f32(v_shl<23>(n + v_setall_s32(127)));
+}
+
+// Four profiles (lanes) of MeasureProfileCrossing's likelihood path. `bytes[k * 4 + l]`
+// is pixel value k (k = 0 .. 11, at -5 .. 6 axis steps) of lane l.
+void ProfileCrossings4(const uint8_t* bytes, const float* axis_length, const float* profile_sigma,
+                       float window_sigma, float* position, float* step, int* valid) {
+  using namespace cv;
+  constexpr int kValues = 2 * kHalfWindow + 2, kDiffs = kValues - 1;
+  v_float32x4 value[kValues], d[kDiffs];
+  for (int k = 0; k < kValues; ++k) value[k] = v_cvt_f32(v_reinterpret_as_s32(v_load_expand_q(bytes + 4 * k)));
+  for (int k = 0; k < kDiffs; ++k) d[k] = value[k + 1] - value[k];
+  const v_float32x4 zero = v_setzero_f32(), one = v_setall_f32(1.0f);
+  // Start at the unweighted centroid of the central +-2 differences.
+  v_float32x4 sum = zero, first = zero;
+  for (int k = kHalfWindow - 2; k <= kHalfWindow + 2; ++k) {
+    sum += d[k];
+    first = v_muladd(d[k], v_setall_f32(k - kHalfWindow + 0.5f), first);
+  }
+  v_float32x4 ok = sum > zero;
+  v_float32x4 x = v_min(v_max(first / v_select(ok, sum, one), v_setall_f32(-1.0f)), one);
+  // One step of the centroid under the Gaussian window (weights by recurrence:
+  // w[k+1] = w[k] r[k], r[k+1] = r[k] exp(-2a)).
+  const v_float32x4 length = v_load(axis_length);
+  const v_float32x4 inv = length * v_setall_f32(1.0f / window_sigma);
+  const v_float32x4 a = v_setall_f32(0.5f) * inv * inv;
+  constexpr float kPos0 = -kHalfWindow + 0.5f;
+  const v_float32x4 t0 = v_setall_f32(kPos0) - x;
+  v_float32x4 w = Exp4(zero - a * t0 * t0);
+  v_float32x4 r = Exp4(zero - a * (t0 + t0 + one));
+  const v_float32x4 q = Exp4(zero - a - a);
+  v_float32x4 sw = zero, sx = zero;
+  for (int k = 0; k < kDiffs; ++k) {
+    const v_float32x4 wd = w * d[k];
+    sw += wd;
+    sx = v_muladd(wd, v_setall_f32(kPos0 + k), sx);
+    w *= r;
+    r *= q;
+  }
+  ok &= sw > zero;
+  x = v_min(v_max(sx / v_select(ok, sw, one), v_setall_f32(-2.0f)), v_setall_f32(2.0f));
+  const v_float32x4 h = value[kValues - 1] - value[0], b = value[0];
+  ok &= (v_abs(x) <= v_setall_f32(1.5f)) & (h > zero);
+  // One Gauss-Newton step of I_k = b + h Phi((k - x0) / sigma) on the values within
+  // 3 sigma + 1 of the crossing. Phi by Abramowitz & Stegun 26.2.17 (error < 1e-7).
+  const v_float32x4 sig = v_load(profile_sigma) / length;
+  const v_float32x4 inv_sig = one / sig;
+  const v_float32x4 reach = v_muladd(sig, v_setall_f32(3.0f), one);
+  const v_float32x4 scale = h * inv_sig * v_setall_f32(0.3989422804014327f);  // h phi / sigma = scale exp(-z^2/2)
+  v_float32x4 a00 = zero, a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
+  for (int k = 0; k < kValues; ++k) {
+    const v_float32x4 offset = v_setall_f32(static_cast<float>(k - kHalfWindow)) - x;
+    const v_float32x4 inside = v_abs(offset) <= reach;
+    const v_float32x4 z = offset * inv_sig;
+    const v_float32x4 gauss = Exp4(v_setall_f32(-0.5f) * z * z);
+    const v_float32x4 t = one / v_muladd(v_abs(z), v_setall_f32(0.2316419f), one);
+    v_float32x4 poly = v_setall_f32(1.330274429f);
+    poly = v_muladd(poly, t, v_setall_f32(-1.821255978f));
+    poly = v_muladd(poly, t, v_setall_f32(1.781477937f));
+    poly = v_muladd(poly, t, v_setall_f32(-0.356563782f));
+    poly = v_muladd(poly, t, v_setall_f32(0.319381530f));
+    const v_float32x4 tail = gauss * v_setall_f32(0.3989422804014327f) * poly * t;  // 1 - Phi(|z|)
+    const v_float32x4 cdf = v_select(inside, v_select(z >= zero, one - tail, tail), zero);
+    const v_float32x4 j0 = v_select(inside, scale * gauss, zero);
+    const v_float32x4 m = v_select(inside, one, zero);
+    const v_float32x4 res = m * (value[k] - b) - h * cdf;
+    a00 = v_muladd(j0, j0, a00), a01 += j0, a02 = v_muladd(j0, cdf, a02);
+    a11 += m, a12 += cdf, a22 = v_muladd(cdf, cdf, a22);
+    r0 = v_muladd(j0, res, r0), r1 += res, r2 = v_muladd(cdf, res, r2);
+  }
+  const v_float32x4 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const v_float32x4 det = a00 * c00 + a01 * c01 + a02 * c02;
+  const v_float32x4 solvable = v_abs(det) > v_setall_f32(1e-12f);
+  const v_float32x4 inv_det = one / v_select(solvable, det, one);
+  const v_float32x4 s0 = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
+  const v_float32x4 s2 = (c02 * r0 + (a01 * a02 - a00 * a12) * r1 + (a00 * a11 - a01 * a01) * r2) * inv_det;
+  // Not a clean step: keep the centroid.
+  const v_float32x4 fitted = solvable & (v_abs(s0) <= one) & (h + s2 > zero);
+  v_store(position, v_select(fitted, x - s0, x));
+  v_store(step, h);
+  v_store(valid, v_reinterpret_as_s32(ok));
+}
+
+}  // namespace
+#endif
+
+void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRequest>& requests, double window_sigma,
+                             std::vector<ProfileCrossing>& out) {
+  const int n = static_cast<int>(requests.size());
+  out.resize(n);
+#if CV_SIMD128
+  constexpr int kValues = 2 * kHalfWindow + 2;
+  const ptrdiff_t row = static_cast<ptrdiff_t>(image.step[0]);
+  alignas(16) uint8_t bytes[kValues * 4];
+  alignas(16) float length[4], sigma[4], position[4], step[4];
+  alignas(16) int valid[4];
+  int inside[4];
+  for (int i0 = 0; i0 < n; i0 += 4) {
+    const int lanes = std::min(4, n - i0);
+    for (int l = 0; l < 4; ++l) {
+      const ProfileRequest& q = requests[i0 + std::min(l, lanes - 1)];
+      inside[l] = q.u - kHalfWindow - 1 >= 0 && q.v - kHalfWindow - 1 >= 0 && q.u + kHalfWindow + 1 < image.cols &&
+                  q.v + kHalfWindow + 1 < image.rows;
+      length[l] = static_cast<float>(q.axis.Length());
+      sigma[l] = q.profile_sigma;
+      if (!inside[l]) {
+        for (int k = 0; k < kValues; ++k) bytes[4 * k + l] = 0;
+        continue;
+      }
+      const ptrdiff_t stride = q.axis.du + q.axis.dv * row;
+      const uint8_t* p = image.data + q.v * row + q.u - kHalfWindow * stride;
+      for (int k = 0; k < kValues; ++k) bytes[4 * k + l] = p[k * stride];
+    }
+    ProfileCrossings4(bytes, length, sigma, static_cast<float>(window_sigma), position, step, valid);
+    for (int l = 0; l < lanes; ++l) {
+      ProfileCrossing& c = out[i0 + l];
+      c = ProfileCrossing();
+      if (!inside[l] || !valid[l]) continue;
+      c.position = position[l];
+      c.step = step[l];
+      c.valid = true;
+    }
+  }
+#else
+  for (int i = 0; i < n; ++i)
+    out[i] = MeasureProfileCrossing(image, requests[i].u, requests[i].v, requests[i].axis, window_sigma,
+                                    requests[i].profile_sigma);
+#endif
 }
 
 void SmoothAndCorrectChain(std::vector<ChainPoint>& chain, bool closed, double blur_variance) {
