@@ -324,13 +324,128 @@ void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRe
 #endif
 }
 
+namespace {
+
+// Step 2 and 3 for point i of a chain whose input positions are px[j], py[j] for
+// j in [lo, hi] (a window around i). Writes `out`; false if degenerate (no change).
+bool SmoothPoint(const double* px, const double* py, int i, int lo, int hi, const Eigen::Vector2d& normal,
+                 double blur_variance, ChainPoint& out) {
+  const double xi = px[i], yi = py[i];
+  // Local frame at point i: tangent along the chord of the window's central part.
+  const int c0 = std::max(i - 2, lo), c1 = std::min(i + 2, hi);
+  double tx = px[c1] - px[c0], ty = py[c1] - py[c0];
+  const double chord2 = tx * tx + ty * ty;
+  if (chord2 < 1e-12) return false;
+  const double inv_chord = 1.0 / std::sqrt(chord2);
+  tx *= inv_chord, ty *= inv_chord;
+  double nx = -ty, ny = tx;
+  if (nx * normal.x() + ny * normal.y() < 0) nx = -nx, ny = -ny;
+  // Circle (or line) through the window, linear in (a, b, c):
+  //   eta = a + b tau + c (tau^2 + eta^2),
+  // exact for circles of any radius and for lines (c = 0); its curvature is
+  // 2c / sqrt(1 + b^2) at tau = 0.
+  double a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
+  for (int j = lo; j <= hi; ++j) {
+    const double dx = px[j] - xi, dy = py[j] - yi;
+    const double tau = dx * tx + dy * ty, eta = dx * nx + dy * ny, q = tau * tau + eta * eta;
+    a01 += tau, a02 += q, a11 += tau * tau, a12 += tau * q, a22 += q * q;
+    r0 += eta, r1 += tau * eta, r2 += q * eta;
+  }
+  const double a00 = hi - lo + 1;
+  const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const double det = a00 * c00 + a01 * c01 + a02 * c02;
+  if (!(std::abs(det) > 1e-12 * (1 + a22 * a11))) return false;
+  const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+  const double inv_det = 1.0 / det;
+  const double a = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
+  const double b = (c01 * r0 + c11 * r1 + c12 * r2) * inv_det;
+  const double c = (c02 * r0 + c12 * r1 + c22 * r2) * inv_det;
+  const double eta0 = a + c * a * a;  // the circle's eta at tau = 0 (|a| << 1 / c)
+  const double inv_len = 1.0 / std::sqrt(1 + b * b);
+  const double half_curvature = c * inv_len;
+  const double shift = eta0 - half_curvature * blur_variance;
+  out.p = Eigen::Vector2d(xi + shift * nx, yi + shift * ny);
+  // (nrm - b t) / |nrm - b t|, with |nrm - b t| = sqrt(1 + b^2).
+  out.normal = Eigen::Vector2d((nx - b * tx) * inv_len, (ny - b * ty) * inv_len);
+  out.curvature = 2 * half_curvature;
+  return true;
+}
+
+#if CV_SIMD128
+// SmoothPoint for the four points i0 .. i0 + 3, each with the full window
+// [i - half, i + half] (px, py valid there), in float SIMD lanes: coordinates are
+// taken relative to an integer origin near the points, so float keeps ~1e-6 px.
+// `out` holds the four points (their normals are read first, for the side).
+void SmoothFourPoints(const double* px, const double* py, int i0, int half, double blur_variance, ChainPoint* out) {
+  using namespace cv;
+  const double ox = std::floor(px[i0]), oy = std::floor(py[i0]);
+  const int m = 4 + 2 * half;  // window of the block: i0 - half .. i0 + 3 + half
+  alignas(16) float bx[4 + 2 * 16], by[4 + 2 * 16];
+  for (int k = 0; k < m; ++k) {
+    bx[k] = static_cast<float>(px[i0 - half + k] - ox);
+    by[k] = static_cast<float>(py[i0 - half + k] - oy);
+  }
+  const float* cx = bx + half;  // lane l of cx[o] .. : point i0 + l + o
+  const float* cy = by + half;
+  const v_float32x4 xi = v_load(cx), yi = v_load(cy), zero = v_setzero_f32(), one = v_setall_f32(1.0f);
+  v_float32x4 tx = v_load(cx + 2) - v_load(cx - 2), ty = v_load(cy + 2) - v_load(cy - 2);
+  const v_float32x4 chord2 = tx * tx + ty * ty;
+  v_float32x4 ok = chord2 >= v_setall_f32(1e-12f);
+  const v_float32x4 inv_chord = one / v_sqrt(v_select(ok, chord2, one));
+  tx *= inv_chord, ty *= inv_chord;
+  const v_float32x4 given_nx(static_cast<float>(out[0].normal.x()), static_cast<float>(out[1].normal.x()),
+                             static_cast<float>(out[2].normal.x()), static_cast<float>(out[3].normal.x()));
+  const v_float32x4 given_ny(static_cast<float>(out[0].normal.y()), static_cast<float>(out[1].normal.y()),
+                             static_cast<float>(out[2].normal.y()), static_cast<float>(out[3].normal.y()));
+  const v_float32x4 flip = (ty * given_nx - tx * given_ny) > zero;  // (-ty, tx) . normal < 0
+  const v_float32x4 nx = v_select(flip, ty, zero - ty), ny = v_select(flip, zero - tx, tx);
+  v_float32x4 a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
+  for (int o = -half; o <= half; ++o) {
+    const v_float32x4 dx = v_load(cx + o) - xi, dy = v_load(cy + o) - yi;
+    const v_float32x4 tau = dx * tx + dy * ty, eta = dx * nx + dy * ny;
+    const v_float32x4 q = tau * tau + eta * eta;
+    a01 += tau, a02 += q, a11 = v_muladd(tau, tau, a11), a12 = v_muladd(tau, q, a12), a22 = v_muladd(q, q, a22);
+    r0 += eta, r1 = v_muladd(tau, eta, r1), r2 = v_muladd(q, eta, r2);
+  }
+  const v_float32x4 a00 = v_setall_f32(static_cast<float>(2 * half + 1));
+  const v_float32x4 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const v_float32x4 det = a00 * c00 + a01 * c01 + a02 * c02;
+  ok &= v_abs(det) > v_setall_f32(1e-12f) * (one + a22 * a11);
+  const v_float32x4 c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+  const v_float32x4 inv_det = one / v_select(ok, det, one);
+  const v_float32x4 a = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
+  const v_float32x4 b = (c01 * r0 + c11 * r1 + c12 * r2) * inv_det;
+  const v_float32x4 c = (c02 * r0 + c12 * r1 + c22 * r2) * inv_det;
+  const v_float32x4 eta0 = a + c * a * a;
+  const v_float32x4 inv_len = one / v_sqrt(one + b * b);
+  const v_float32x4 half_curvature = c * inv_len;
+  const v_float32x4 shift = eta0 - half_curvature * v_setall_f32(static_cast<float>(blur_variance));
+  alignas(16) float s_shift[4], s_nx[4], s_ny[4], s_ux[4], s_uy[4], s_curv[4];
+  alignas(16) int s_ok[4];
+  v_store(s_shift, shift), v_store(s_nx, nx), v_store(s_ny, ny);
+  v_store(s_ux, (nx - b * tx) * inv_len), v_store(s_uy, (ny - b * ty) * inv_len);
+  v_store(s_curv, half_curvature + half_curvature);
+  v_store(s_ok, v_reinterpret_as_s32(ok));
+  for (int l = 0; l < 4; ++l) {
+    if (!s_ok[l]) continue;
+    const int i = i0 + l;
+    ChainPoint& p = out[l];
+    p.p = Eigen::Vector2d(px[i] + static_cast<double>(s_shift[l]) * s_nx[l], py[i] + static_cast<double>(s_shift[l]) * s_ny[l]);
+    p.normal = Eigen::Vector2d(s_ux[l], s_uy[l]).normalized();
+    p.curvature = s_curv[l];
+  }
+}
+#endif
+
+}  // namespace
+
 void SmoothAndCorrectChain(std::vector<ChainPoint>& chain, bool closed, double blur_variance) {
   const int n = static_cast<int>(chain.size());
   constexpr int kHalf = 6;
   if (n < 5) return;
   const int half = std::min(kHalf, (n - 1) / 2);
   // The input positions, with `half` wrapped points before and after a closed chain:
-  // xs[j + half] is point j (j in -half .. n + half - 1 when closed).
+  // xs[j + pad] is point j (j in -half .. n + half - 1 when closed).
   thread_local std::vector<double> xs, ys;
   const int pad = closed ? half : 0;
   xs.resize(n + 2 * pad);
@@ -341,53 +456,22 @@ void SmoothAndCorrectChain(std::vector<ChainPoint>& chain, bool closed, double b
     xs[k] = chain[j].p.x();
     ys[k] = chain[j].p.y();
   }
-  for (int i = 0; i < n; ++i) {
-    int lo = i - half, hi = i + half;
-    if (!closed) {  // shift the window inside an open chain
-      if (lo < 0) hi -= lo, lo = 0;
-      if (hi >= n) lo -= hi - n + 1, hi = n - 1;
-    }
-    const double* px = xs.data() + pad;
-    const double* py = ys.data() + pad;
-    const double xi = px[i], yi = py[i];
-    // Local frame at point i: tangent along the chord of the window's central part.
-    const int c0 = std::max(i - 2, lo), c1 = std::min(i + 2, hi);
-    double tx = px[c1] - px[c0], ty = py[c1] - py[c0];
-    const double chord2 = tx * tx + ty * ty;
-    if (chord2 < 1e-12) continue;
-    const double inv_chord = 1.0 / std::sqrt(chord2);
-    tx *= inv_chord, ty *= inv_chord;
-    double nx = -ty, ny = tx;
-    if (nx * chain[i].normal.x() + ny * chain[i].normal.y() < 0) nx = -nx, ny = -ny;
-    // Circle (or line) through the window, linear in (a, b, c):
-    //   eta = a + b tau + c (tau^2 + eta^2),
-    // exact for circles of any radius and for lines (c = 0); its curvature is
-    // 2c / sqrt(1 + b^2) at tau = 0.
-    double a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0, r0 = 0, r1 = 0, r2 = 0;
-    for (int j = lo; j <= hi; ++j) {
-      const double dx = px[j] - xi, dy = py[j] - yi;
-      const double tau = dx * tx + dy * ty, eta = dx * nx + dy * ny, q = tau * tau + eta * eta;
-      a01 += tau, a02 += q, a11 += tau * tau, a12 += tau * q, a22 += q * q;
-      r0 += eta, r1 += tau * eta, r2 += q * eta;
-    }
-    const double a00 = hi - lo + 1;
-    const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
-    const double det = a00 * c00 + a01 * c01 + a02 * c02;
-    if (!(std::abs(det) > 1e-12 * (1 + a22 * a11))) continue;
-    const double c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
-    const double inv_det = 1.0 / det;
-    const double a = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
-    const double b = (c01 * r0 + c11 * r1 + c12 * r2) * inv_det;
-    const double c = (c02 * r0 + c12 * r1 + c22 * r2) * inv_det;
-    const double eta0 = a + c * a * a;  // the circle's eta at tau = 0 (|a| << 1 / c)
-    const double inv_len = 1.0 / std::sqrt(1 + b * b);
-    const double half_curvature = c * inv_len;
-    const double shift = eta0 - half_curvature * blur_variance;
-    ChainPoint& out = chain[i];
-    out.p = Eigen::Vector2d(xi + shift * nx, yi + shift * ny);
-    // (nrm - b t) / |nrm - b t|, with |nrm - b t| = sqrt(1 + b^2).
-    out.normal = Eigen::Vector2d((nx - b * tx) * inv_len, (ny - b * ty) * inv_len);
-    out.curvature = 2 * half_curvature;
+  const double* px = xs.data() + pad;
+  const double* py = ys.data() + pad;
+  // Points whose window [i - half, i + half] needs no shift: all of a closed chain.
+  const int first = closed ? 0 : half, last = closed ? n : n - half;
+  int i = 0;
+  for (; i < first; ++i) {
+    const int lo = 0, hi = std::min(n - 1, i + half + (half - i));
+    SmoothPoint(px, py, i, lo, hi, chain[i].normal, blur_variance, chain[i]);
+  }
+#if CV_SIMD128
+  for (; i + 4 <= last; i += 4) SmoothFourPoints(px, py, i, half, blur_variance, &chain[i]);
+#endif
+  for (; i < last; ++i) SmoothPoint(px, py, i, i - half, i + half, chain[i].normal, blur_variance, chain[i]);
+  for (; i < n; ++i) {
+    const int hi = n - 1, lo = std::max(0, i - half - (i + half - hi));
+    SmoothPoint(px, py, i, lo, hi, chain[i].normal, blur_variance, chain[i]);
   }
 }
 
