@@ -238,31 +238,56 @@ void ProfileCrossings4(const uint8_t* bytes, const float* axis_length, const flo
   const v_float32x4 h = value[kValues - 1] - value[0], b = value[0];
   ok &= (v_abs(x) <= v_setall_f32(1.5f)) & (h > zero);
   // One Gauss-Newton step of I_k = b + h Phi((k - x0) / sigma) on the values within
-  // 3 sigma + 1 of the crossing. Phi by Abramowitz & Stegun 26.2.17 (error < 1e-7).
+  // 3 sigma + 1 of the crossing. Phi by Abramowitz & Stegun 26.2.17 (error < 1e-7)
+  // from the density, which follows k by recurrence from the centre outwards:
+  // g(z + delta) = g(z) rho, rho <- rho exp(-delta^2), with g(z) = exp(-z^2 / 2).
   const v_float32x4 sig = v_load(profile_sigma) / length;
   const v_float32x4 inv_sig = one / sig;
   const v_float32x4 reach = v_muladd(sig, v_setall_f32(3.0f), one);
-  const v_float32x4 scale = h * inv_sig * v_setall_f32(0.3989422804014327f);  // h phi / sigma = scale exp(-z^2/2)
+  const v_float32x4 scale = h * inv_sig;  // h phi / sigma = scale g / sqrt(2 pi)
+  const v_float32x4 sign_bit = v_reinterpret_as_f32(v_setall_s32(static_cast<int>(0x80000000u)));
+  const v_float32x4 half_one = v_setall_f32(0.5f), inv_sqrt_2pi = v_setall_f32(0.3989422804014327f);
   v_float32x4 a00 = zero, a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
-  for (int k = 0; k < kValues; ++k) {
+  auto term = [&](int k, const v_float32x4& g) {
     const v_float32x4 offset = v_setall_f32(static_cast<float>(k - kHalfWindow)) - x;
     const v_float32x4 inside = v_abs(offset) <= reach;
     const v_float32x4 z = offset * inv_sig;
-    const v_float32x4 gauss = Exp4(v_setall_f32(-0.5f) * z * z);
+    const v_float32x4 phi = g * inv_sqrt_2pi;
     const v_float32x4 t = one / v_muladd(v_abs(z), v_setall_f32(0.2316419f), one);
     v_float32x4 poly = v_setall_f32(1.330274429f);
     poly = v_muladd(poly, t, v_setall_f32(-1.821255978f));
     poly = v_muladd(poly, t, v_setall_f32(1.781477937f));
     poly = v_muladd(poly, t, v_setall_f32(-0.356563782f));
     poly = v_muladd(poly, t, v_setall_f32(0.319381530f));
-    const v_float32x4 tail = gauss * v_setall_f32(0.3989422804014327f) * poly * t;  // 1 - Phi(|z|)
-    const v_float32x4 cdf = v_select(inside, v_select(z >= zero, one - tail, tail), zero);
-    const v_float32x4 j0 = v_select(inside, scale * gauss, zero);
-    const v_float32x4 m = v_select(inside, one, zero);
-    const v_float32x4 res = m * (value[k] - b) - h * cdf;
+    const v_float32x4 tail = phi * poly * t;  // 1 - Phi(|z|)
+    // Phi(z) = 1/2 + sign(z) (1/2 - tail), zero outside the window.
+    const v_float32x4 cdf = inside & (half_one + ((half_one - tail) ^ (z & sign_bit)));
+    const v_float32x4 j0 = inside & (scale * phi);
+    const v_float32x4 m = inside & one;
+    const v_float32x4 res = (inside & (value[k] - b)) - h * cdf;
     a00 = v_muladd(j0, j0, a00), a01 += j0, a02 = v_muladd(j0, cdf, a02);
     a11 += m, a12 += cdf, a22 = v_muladd(cdf, cdf, a22);
     r0 = v_muladd(j0, res, r0), r1 += res, r2 = v_muladd(cdf, res, r2);
+  };
+  {
+    const v_float32x4 zc = (zero - x) * inv_sig;  // z at k = kHalfWindow
+    const v_float32x4 g_centre = Exp4(v_setall_f32(-0.5f) * zc * zc);
+    const v_float32x4 kappa = Exp4(zero - inv_sig * inv_sig);
+    // Forward: rho = exp(-(z delta + delta^2 / 2)); backward: delta -> -delta.
+    const v_float32x4 half_d2 = half_one * inv_sig * inv_sig;
+    v_float32x4 g = g_centre, rho = Exp4(zero - zc * inv_sig - half_d2);
+    for (int k = kHalfWindow; k < kValues; ++k) {
+      term(k, g);
+      g *= rho;
+      rho *= kappa;
+    }
+    g = g_centre;
+    rho = Exp4(zc * inv_sig - half_d2);
+    for (int k = kHalfWindow - 1; k >= 0; --k) {
+      g *= rho;
+      rho *= kappa;
+      term(k, g);
+    }
   }
   const v_float32x4 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
   const v_float32x4 det = a00 * c00 + a01 * c01 + a02 * c02;
