@@ -177,6 +177,13 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
 }
 
 #if CV_SIMD128
+// The SIMD kernels are also compiled for x86-64-v3 (AVX2, FMA: fused multiply-adds,
+// three-operand forms), chosen at load time when the CPU has it.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+#define FLATSCAN_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define FLATSCAN_SIMD_CLONES
+#endif
 namespace {
 
 // exp(x) in four lanes (Cephes' single-precision polynomial after reduction by ln 2;
@@ -199,7 +206,7 @@ inline cv::v_float32x4 Exp4(cv::v_float32x4 x) {
 
 // Four profiles (lanes) of MeasureProfileCrossing's likelihood path. `bytes[k * 4 + l]`
 // is pixel value k (k = 0 .. 11, at -5 .. 6 axis steps) of lane l.
-void ProfileCrossings4(const uint8_t* bytes, const float* axis_length, const float* profile_sigma,
+FLATSCAN_SIMD_CLONES void ProfileCrossings4(const uint8_t* bytes, const float* axis_length, const float* profile_sigma,
                        float window_sigma, float* position, float* step, int* valid) {
   using namespace cv;
   constexpr int kValues = 2 * kHalfWindow + 2, kDiffs = kValues - 1;
@@ -401,7 +408,7 @@ bool SmoothPoint(const double* px, const double* py, int i, int lo, int hi, cons
 // [i - half, i + half] (px, py valid there), in float SIMD lanes: coordinates are
 // taken relative to an integer origin near the points, so float keeps ~1e-6 px.
 // `out` holds the four points (their normals are read first, for the side).
-void SmoothFourPoints(const double* px, const double* py, int i0, int half, double blur_variance, ChainPoint* out) {
+FLATSCAN_SIMD_CLONES void SmoothFourPoints(const double* px, const double* py, int i0, int half, double blur_variance, ChainPoint* out) {
   using namespace cv;
   const double ox = std::floor(px[i0]), oy = std::floor(py[i0]);
   const int m = 4 + 2 * half;  // window of the block: i0 - half .. i0 + 3 + half
