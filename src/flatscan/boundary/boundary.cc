@@ -273,20 +273,22 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
     if (model) {  // the profiles of the whole chain at once (SIMD lanes)
       requests.clear();
       normals.clear();
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(image.step[0]);
       for (int i = 0; i < count; ++i) {
-        const Eigen::Vector2d g = SobelGradient(image, pixels[i].u, pixels[i].v);
-        const double norm = g.norm();
-        if (norm <= 0) continue;
-        const Eigen::Vector2d n = g / norm;
+        const uint8_t* c = image.data + pixels[i].v * row + pixels[i].u;
+        const int gx = (c[1 - row] + 2 * c[1] + c[1 + row]) - (c[-1 - row] + 2 * c[-1] + c[-1 + row]);
+        const int gy = (c[row - 1] + 2 * c[row] + c[row + 1]) - (c[-row - 1] + 2 * c[-row] + c[-row + 1]);
+        if (gx == 0 && gy == 0) continue;
         ProfileRequest q;
         q.u = pixels[i].u;
         q.v = pixels[i].v;
-        q.axis = ClosestProfileAxis(n);
+        q.axis = ClosestProfileAxis(Eigen::Vector2d(gx, gy));
         // The edge profile's sigma along the axis: sigma / cos(normal, axis).
-        const double cosine = std::abs(n.x() * q.axis.du + n.y() * q.axis.dv) / q.axis.Length();
-        q.profile_sigma = static_cast<float>(blur_sigma / cosine);
+        const double norm = std::sqrt(static_cast<double>(gx * gx + gy * gy));
+        const double dot = std::abs(gx * q.axis.du + gy * q.axis.dv);
+        q.profile_sigma = static_cast<float>(blur_sigma * norm * q.axis.Length() / dot);
         requests.push_back(q);
-        normals.push_back(n);
+        normals.push_back(Eigen::Vector2d(gx, gy) / norm);
       }
       MeasureProfileCrossings(image, requests, window_sigma, crossings);
       for (size_t i = 0; i < requests.size(); ++i) {

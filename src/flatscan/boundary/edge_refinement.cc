@@ -65,15 +65,6 @@ const NormalCdfTable& NormalCdf() {
 
 }  // namespace
 
-ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal) {
-  // Axis-aligned when the smaller component is below tan(22.5 deg) of the larger.
-  constexpr double kTan22_5 = 0.41421356237309503;
-  const double ax = std::abs(normal.x()), ay = std::abs(normal.y());
-  const int sx = normal.x() >= 0 ? 1 : -1, sy = normal.y() >= 0 ? 1 : -1;
-  if (ay <= kTan22_5 * ax) return {sx, 0};
-  if (ax <= kTan22_5 * ay) return {0, sy};
-  return {sx, sy};
-}
 
 ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, const ProfileAxis& axis,
                                        double window_sigma, double profile_sigma, bool with_second_moment) {

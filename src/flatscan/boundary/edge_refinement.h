@@ -41,8 +41,16 @@ struct ProfileAxis {
   int du = 1, dv = 0;
   double Length() const { return (du != 0 && dv != 0) ? 1.4142135623730951 : 1.0; }
 };
-// The grid direction closest to `normal`, oriented so that normal . axis > 0.
-ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal);
+// The grid direction closest to `normal` (any length), oriented so that normal . axis > 0.
+inline ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal) {
+  // Axis-aligned when the smaller component is below tan(22.5 deg) of the larger.
+  constexpr double kTan22_5 = 0.41421356237309503;
+  const double ax = normal.x() >= 0 ? normal.x() : -normal.x(), ay = normal.y() >= 0 ? normal.y() : -normal.y();
+  const int sx = normal.x() >= 0 ? 1 : -1, sy = normal.y() >= 0 ? 1 : -1;
+  if (ay <= kTan22_5 * ax) return {sx, 0};
+  if (ax <= kTan22_5 * ay) return {0, sy};
+  return {sx, sy};
+}
 
 // Profile through pixel (u, v) along `axis`. `window_sigma`: the Gaussian window's
 // sigma in px. `position` is in steps of the axis from (u, v). With
