@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 
 #include <Eigen/Dense>
 #include <opencv2/core/hal/intrin.hpp>
@@ -167,137 +168,159 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
   return out;
 }
 
-#if CV_SIMD128
-// The SIMD kernels are also compiled for x86-64-v3 (AVX2, FMA: fused multiply-adds,
-// three-operand forms), chosen at load time when the CPU has it.
+// The SIMD kernels are also compiled for x86-64-v3 (AVX2, FMA), chosen at load time
+// when the CPU has it.
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 #define FLATSCAN_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define FLATSCAN_SIMD_CLONES
 #endif
+
+#if defined(__GNUC__)  // GCC and Clang vector extensions: 8 lanes (AVX2), or 2 x 4 (SSE2)
+#define FLATSCAN_PROFILE_LANES 8
+// The 32-byte vectors only pass between inlined helpers of this file (no ABI concern).
+#pragma GCC diagnostic ignored "-Wpsabi"
 namespace {
 
-// exp(x) in four lanes (Cephes' single-precision polynomial after reduction by ln 2;
+using F8 = float __attribute__((vector_size(32)));
+using I8 = int32_t __attribute__((vector_size(32)));
+using B8 = uint8_t __attribute__((vector_size(8)));
+constexpr int kLanes = 8;
+
+inline F8 Splat(float x) { return F8{} + x; }
+inline F8 And(I8 mask, F8 a) { return reinterpret_cast<F8>(mask & reinterpret_cast<I8>(a)); }
+inline F8 Select(I8 mask, F8 a, F8 b) {
+  return reinterpret_cast<F8>((mask & reinterpret_cast<I8>(a)) | (~mask & reinterpret_cast<I8>(b)));
+}
+inline F8 Abs(F8 a) { return reinterpret_cast<F8>(reinterpret_cast<I8>(a) & 0x7fffffff); }
+inline F8 Min(F8 a, F8 b) { return Select(a < b, a, b); }
+inline F8 Max(F8 a, F8 b) { return Select(a > b, a, b); }
+
+// exp(x) per lane (Cephes' single-precision polynomial after reduction by ln 2;
 // relative error about 2e-7; x clamped to [-87, 87]).
-inline cv::v_float32x4 Exp4(cv::v_float32x4 x) {
-  using namespace cv;
-  x = v_min(v_max(x, v_setall_f32(-87.0f)), v_setall_f32(87.0f));
-  const v_int32x4 n = v_round(x * v_setall_f32(1.44269504088896341f));
-  const v_float32x4 fn = v_cvt_f32(n);
-  const v_float32x4 r = x - fn * v_setall_f32(0.693359375f) + fn * v_setall_f32(2.12194440e-4f);
-  v_float32x4 p = v_setall_f32(1.9875691500e-4f);
-  p = v_muladd(p, r, v_setall_f32(1.3981999507e-3f));
-  p = v_muladd(p, r, v_setall_f32(8.3334519073e-3f));
-  p = v_muladd(p, r, v_setall_f32(4.1665795894e-2f));
-  p = v_muladd(p, r, v_setall_f32(1.6666665459e-1f));
-  p = v_muladd(p, r, v_setall_f32(5.0000001201e-1f));
-  const v_float32x4 y = v_muladd(p, r * r, r) + v_setall_f32(1.0f);
-  return y * v_reinterpret_as_f32(v_shl<23>(n + v_setall_s32(127)));
+inline F8 Exp8(F8 x) {
+  x = Min(Max(x, Splat(-87.0f)), Splat(87.0f));
+  const F8 fx = x * 1.44269504088896341f;
+  const I8 n = __builtin_convertvector(fx + Select(fx >= 0.0f, Splat(0.5f), Splat(-0.5f)), I8);  // rounded
+  const F8 fn = __builtin_convertvector(n, F8);
+  const F8 r = x - fn * 0.693359375f + fn * 2.12194440e-4f;
+  F8 p = Splat(1.9875691500e-4f);
+  p = p * r + 1.3981999507e-3f;
+  p = p * r + 8.3334519073e-3f;
+  p = p * r + 4.1665795894e-2f;
+  p = p * r + 1.6666665459e-1f;
+  p = p * r + 5.0000001201e-1f;
+  const F8 y = p * (r * r) + r + 1.0f;
+  return y * reinterpret_cast<F8>((n + 127) << 23);
 }
 
-// Four profiles (lanes) of MeasureProfileCrossing's likelihood path. `bytes[k * 4 + l]`
+// MeasureProfileCrossing's likelihood path for 8 profiles (lanes). `bytes[k * 8 + l]`
 // is pixel value k (k = 0 .. 11, at -5 .. 6 axis steps) of lane l.
-FLATSCAN_SIMD_CLONES void ProfileCrossings4(const uint8_t* bytes, const float* axis_length, const float* profile_sigma,
-                       float window_sigma, float* position, float* step, int* valid) {
-  using namespace cv;
+FLATSCAN_SIMD_CLONES void ProfileCrossings8(const uint8_t* bytes, const float* axis_length,
+                                            const float* profile_sigma, float window_sigma, float* position,
+                                            float* step, int32_t* valid) {
   constexpr int kValues = 2 * kHalfWindow + 2, kDiffs = kValues - 1;
-  v_float32x4 value[kValues], d[kDiffs];
-  for (int k = 0; k < kValues; ++k) value[k] = v_cvt_f32(v_reinterpret_as_s32(v_load_expand_q(bytes + 4 * k)));
+  F8 value[kValues], d[kDiffs];
+  for (int k = 0; k < kValues; ++k) {
+    B8 b;
+    std::memcpy(&b, bytes + kLanes * k, sizeof(b));
+    value[k] = __builtin_convertvector(b, F8);
+  }
   for (int k = 0; k < kDiffs; ++k) d[k] = value[k + 1] - value[k];
-  const v_float32x4 zero = v_setzero_f32(), one = v_setall_f32(1.0f);
+  const F8 zero = Splat(0.0f), one = Splat(1.0f);
   // Start at the unweighted centroid of the central +-2 differences.
-  v_float32x4 sum = zero, first = zero;
+  F8 sum = zero, first = zero;
   for (int k = kHalfWindow - 2; k <= kHalfWindow + 2; ++k) {
     sum += d[k];
-    first = v_muladd(d[k], v_setall_f32(k - kHalfWindow + 0.5f), first);
+    first += d[k] * (k - kHalfWindow + 0.5f);
   }
-  v_float32x4 ok = sum > zero;
-  v_float32x4 x = v_min(v_max(first / v_select(ok, sum, one), v_setall_f32(-1.0f)), one);
+  I8 ok = sum > 0.0f;
+  F8 x = Min(Max(first / Select(ok, sum, one), Splat(-1.0f)), one);
   // One step of the centroid under the Gaussian window (weights by recurrence:
   // w[k+1] = w[k] r[k], r[k+1] = r[k] exp(-2a)).
-  const v_float32x4 length = v_load(axis_length);
-  const v_float32x4 inv = length * v_setall_f32(1.0f / window_sigma);
-  const v_float32x4 a = v_setall_f32(0.5f) * inv * inv;
+  F8 length, sigma_px;
+  std::memcpy(&length, axis_length, sizeof(length));
+  std::memcpy(&sigma_px, profile_sigma, sizeof(sigma_px));
+  const F8 inv = length * (1.0f / window_sigma);
+  const F8 a = 0.5f * inv * inv;
   constexpr float kPos0 = -kHalfWindow + 0.5f;
-  const v_float32x4 t0 = v_setall_f32(kPos0) - x;
-  v_float32x4 w = Exp4(zero - a * t0 * t0);
-  v_float32x4 r = Exp4(zero - a * (t0 + t0 + one));
-  const v_float32x4 q = Exp4(zero - a - a);
-  v_float32x4 sw = zero, sx = zero;
+  const F8 t0 = kPos0 - x;
+  F8 w = Exp8(-a * t0 * t0);
+  F8 r = Exp8(-a * (t0 + t0 + 1.0f));
+  const F8 q = Exp8(-a - a);
+  F8 sw = zero, sx = zero;
   for (int k = 0; k < kDiffs; ++k) {
-    const v_float32x4 wd = w * d[k];
+    const F8 wd = w * d[k];
     sw += wd;
-    sx = v_muladd(wd, v_setall_f32(kPos0 + k), sx);
+    sx += wd * (kPos0 + k);
     w *= r;
     r *= q;
   }
-  ok &= sw > zero;
-  x = v_min(v_max(sx / v_select(ok, sw, one), v_setall_f32(-2.0f)), v_setall_f32(2.0f));
-  const v_float32x4 h = value[kValues - 1] - value[0], b = value[0];
-  ok &= (v_abs(x) <= v_setall_f32(1.5f)) & (h > zero);
+  ok &= sw > 0.0f;
+  x = Min(Max(sx / Select(ok, sw, one), Splat(-2.0f)), Splat(2.0f));
+  const F8 h = value[kValues - 1] - value[0], b = value[0];
+  ok &= (Abs(x) <= 1.5f) & (h > 0.0f);
   // One Gauss-Newton step of I_k = b + h Phi((k - x0) / sigma) on the values within
-  // 3 sigma + 1 of the crossing. Phi by Abramowitz & Stegun 26.2.17 (error < 1e-7)
+  // 3 sigma + 1 of the crossing (from the centroid, which is within a few hundredths
+  // of a pixel, one step suffices). Phi by Abramowitz & Stegun 26.2.17 (error < 1e-7)
   // from the density, which follows k by recurrence from the centre outwards:
   // g(z + delta) = g(z) rho, rho <- rho exp(-delta^2), with g(z) = exp(-z^2 / 2).
-  const v_float32x4 sig = v_load(profile_sigma) / length;
-  const v_float32x4 inv_sig = one / sig;
-  const v_float32x4 reach = v_muladd(sig, v_setall_f32(3.0f), one);
-  const v_float32x4 scale = h * inv_sig;  // h phi / sigma = scale g / sqrt(2 pi)
-  const v_float32x4 sign_bit = v_reinterpret_as_f32(v_setall_s32(static_cast<int>(0x80000000u)));
-  const v_float32x4 half_one = v_setall_f32(0.5f), inv_sqrt_2pi = v_setall_f32(0.3989422804014327f);
-  v_float32x4 a00 = zero, a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
-  auto term = [&](int k, const v_float32x4& g) {
-    const v_float32x4 offset = v_setall_f32(static_cast<float>(k - kHalfWindow)) - x;
-    const v_float32x4 inside = v_abs(offset) <= reach;
-    const v_float32x4 z = offset * inv_sig;
-    const v_float32x4 phi = g * inv_sqrt_2pi;
-    const v_float32x4 t = one / v_muladd(v_abs(z), v_setall_f32(0.2316419f), one);
-    v_float32x4 poly = v_setall_f32(1.330274429f);
-    poly = v_muladd(poly, t, v_setall_f32(-1.821255978f));
-    poly = v_muladd(poly, t, v_setall_f32(1.781477937f));
-    poly = v_muladd(poly, t, v_setall_f32(-0.356563782f));
-    poly = v_muladd(poly, t, v_setall_f32(0.319381530f));
-    const v_float32x4 tail = phi * poly * t;  // 1 - Phi(|z|)
+  const F8 sig = sigma_px / length;
+  const F8 inv_sig = one / sig;
+  const F8 reach = sig * 3.0f + 1.0f;
+  const F8 scale = h * inv_sig;  // h phi / sigma = scale g / sqrt(2 pi)
+  F8 a00 = zero, a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
+  auto term = [&](int k, const F8& g) {
+    const F8 offset = static_cast<float>(k - kHalfWindow) - x;
+    const I8 inside = Abs(offset) <= reach;
+    const F8 z = offset * inv_sig;
+    const F8 phi = g * 0.3989422804014327f;
+    const F8 t = one / (Abs(z) * 0.2316419f + 1.0f);
+    F8 poly = Splat(1.330274429f);
+    poly = poly * t - 1.821255978f;
+    poly = poly * t + 1.781477937f;
+    poly = poly * t - 0.356563782f;
+    poly = poly * t + 0.319381530f;
+    const F8 tail = phi * poly * t;  // 1 - Phi(|z|)
     // Phi(z) = 1/2 + sign(z) (1/2 - tail), zero outside the window.
-    const v_float32x4 cdf = inside & (half_one + ((half_one - tail) ^ (z & sign_bit)));
-    const v_float32x4 j0 = inside & (scale * phi);
-    const v_float32x4 m = inside & one;
-    const v_float32x4 res = (inside & (value[k] - b)) - h * cdf;
-    a00 = v_muladd(j0, j0, a00), a01 += j0, a02 = v_muladd(j0, cdf, a02);
-    a11 += m, a12 += cdf, a22 = v_muladd(cdf, cdf, a22);
-    r0 = v_muladd(j0, res, r0), r1 += res, r2 = v_muladd(cdf, res, r2);
+    const F8 side = reinterpret_cast<F8>(reinterpret_cast<I8>(0.5f - tail) ^
+                                         (reinterpret_cast<I8>(z) & static_cast<int32_t>(0x80000000u)));
+    const F8 cdf = And(inside, 0.5f + side);
+    const F8 j0 = And(inside, scale * phi);
+    const F8 res = And(inside, value[k] - b) - h * cdf;
+    a00 += j0 * j0, a01 += j0, a02 += j0 * cdf;
+    a11 += And(inside, one), a12 += cdf, a22 += cdf * cdf;
+    r0 += j0 * res, r1 += res, r2 += cdf * res;
   };
-  {
-    const v_float32x4 zc = (zero - x) * inv_sig;  // z at k = kHalfWindow
-    const v_float32x4 g_centre = Exp4(v_setall_f32(-0.5f) * zc * zc);
-    const v_float32x4 kappa = Exp4(zero - inv_sig * inv_sig);
-    // Forward: rho = exp(-(z delta + delta^2 / 2)); backward: delta -> -delta.
-    const v_float32x4 half_d2 = half_one * inv_sig * inv_sig;
-    v_float32x4 g = g_centre, rho = Exp4(zero - zc * inv_sig - half_d2);
-    for (int k = kHalfWindow; k < kValues; ++k) {
-      term(k, g);
-      g *= rho;
-      rho *= kappa;
-    }
-    g = g_centre;
-    rho = Exp4(zc * inv_sig - half_d2);
-    for (int k = kHalfWindow - 1; k >= 0; --k) {
-      g *= rho;
-      rho *= kappa;
-      term(k, g);
-    }
+  const F8 zc = -x * inv_sig;  // z at k = kHalfWindow
+  const F8 g_centre = Exp8(-0.5f * zc * zc);
+  const F8 kappa = Exp8(-inv_sig * inv_sig);
+  const F8 half_d2 = 0.5f * inv_sig * inv_sig;
+  F8 g = g_centre, rho = Exp8(-zc * inv_sig - half_d2);  // forward: rho = exp(-(z delta + delta^2 / 2))
+  for (int k = kHalfWindow; k < kValues; ++k) {
+    term(k, g);
+    g *= rho;
+    rho *= kappa;
   }
-  const v_float32x4 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
-  const v_float32x4 det = a00 * c00 + a01 * c01 + a02 * c02;
-  const v_float32x4 solvable = v_abs(det) > v_setall_f32(1e-12f);
-  const v_float32x4 inv_det = one / v_select(solvable, det, one);
-  const v_float32x4 s0 = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
-  const v_float32x4 s2 = (c02 * r0 + (a01 * a02 - a00 * a12) * r1 + (a00 * a11 - a01 * a01) * r2) * inv_det;
+  g = g_centre;
+  rho = Exp8(zc * inv_sig - half_d2);  // backward: delta -> -delta
+  for (int k = kHalfWindow - 1; k >= 0; --k) {
+    g *= rho;
+    rho *= kappa;
+    term(k, g);
+  }
+  const F8 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const F8 det = a00 * c00 + a01 * c01 + a02 * c02;
+  const I8 solvable = Abs(det) > 1e-12f;
+  const F8 inv_det = one / Select(solvable, det, one);
+  const F8 s0 = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
+  const F8 s2 = (c02 * r0 + (a01 * a02 - a00 * a12) * r1 + (a00 * a11 - a01 * a01) * r2) * inv_det;
   // Not a clean step: keep the centroid.
-  const v_float32x4 fitted = solvable & (v_abs(s0) <= one) & (h + s2 > zero);
-  v_store(position, v_select(fitted, x - s0, x));
-  v_store(step, h);
-  v_store(valid, v_reinterpret_as_s32(ok));
+  const I8 fitted = solvable & (Abs(s0) <= 1.0f) & (h + s2 > 0.0f);
+  const F8 result = Select(fitted, x - s0, x);
+  std::memcpy(position, &result, sizeof(result));
+  std::memcpy(step, &h, sizeof(h));
+  std::memcpy(valid, &ok, sizeof(ok));
 }
 
 }  // namespace
@@ -307,30 +330,30 @@ void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRe
                              std::vector<ProfileCrossing>& out) {
   const int n = static_cast<int>(requests.size());
   out.resize(n);
-#if CV_SIMD128
+#ifdef FLATSCAN_PROFILE_LANES
   constexpr int kValues = 2 * kHalfWindow + 2;
   const ptrdiff_t row = static_cast<ptrdiff_t>(image.step[0]);
-  alignas(16) uint8_t bytes[kValues * 4];
-  alignas(16) float length[4], sigma[4], position[4], step[4];
-  alignas(16) int valid[4];
-  int inside[4];
-  for (int i0 = 0; i0 < n; i0 += 4) {
-    const int lanes = std::min(4, n - i0);
-    for (int l = 0; l < 4; ++l) {
+  alignas(32) uint8_t bytes[kValues * kLanes];
+  alignas(32) float length[kLanes], sigma[kLanes], position[kLanes], step[kLanes];
+  alignas(32) int32_t valid[kLanes];
+  bool inside[kLanes];
+  for (int i0 = 0; i0 < n; i0 += kLanes) {
+    const int lanes = std::min(kLanes, n - i0);
+    for (int l = 0; l < kLanes; ++l) {
       const ProfileRequest& q = requests[i0 + std::min(l, lanes - 1)];
       inside[l] = q.u - kHalfWindow - 1 >= 0 && q.v - kHalfWindow - 1 >= 0 && q.u + kHalfWindow + 1 < image.cols &&
                   q.v + kHalfWindow + 1 < image.rows;
       length[l] = static_cast<float>(q.axis.Length());
       sigma[l] = q.profile_sigma;
       if (!inside[l]) {
-        for (int k = 0; k < kValues; ++k) bytes[4 * k + l] = 0;
+        for (int k = 0; k < kValues; ++k) bytes[kLanes * k + l] = 0;
         continue;
       }
       const ptrdiff_t stride = q.axis.du + q.axis.dv * row;
       const uint8_t* p = image.data + q.v * row + q.u - kHalfWindow * stride;
-      for (int k = 0; k < kValues; ++k) bytes[4 * k + l] = p[k * stride];
+      for (int k = 0; k < kValues; ++k) bytes[kLanes * k + l] = p[k * stride];
     }
-    ProfileCrossings4(bytes, length, sigma, static_cast<float>(window_sigma), position, step, valid);
+    ProfileCrossings8(bytes, length, sigma, static_cast<float>(window_sigma), position, step, valid);
     for (int l = 0; l < lanes; ++l) {
       ProfileCrossing& c = out[i0 + l];
       c = ProfileCrossing();
