@@ -114,6 +114,10 @@ PixelChains ChainPixels(const cv::Mat1b& image, const std::vector<cv::Rect>& reg
       if (k == 8) return;
       m += offsets[k];
       *m = kVisited;
+#if defined(__GNUC__)
+      // The map has left the caches since Canny: fetch where the walk is heading.
+      __builtin_prefetch(m + 4 * offsets[k]);
+#endif
       p = {p.u + kOffsets[k][0], p.v + kOffsets[k][1]};
       out.push_back(p);
     }
