@@ -168,192 +168,207 @@ ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, con
   return out;
 }
 
-// The SIMD kernels are also compiled for x86-64-v3 (AVX2, FMA), chosen at load time
-// when the CPU has it.
+// The chain smoothing kernel is also compiled for x86-64-v3 (AVX2, FMA), chosen at
+// load time when the CPU has it; the profile kernel has an 8-lane AVX2 variant.
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 #define FLATSCAN_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define FLATSCAN_SIMD_CLONES
 #endif
 
-#if defined(__GNUC__)  // GCC and Clang vector extensions: 8 lanes (AVX2), or 2 x 4 (SSE2)
-#define FLATSCAN_PROFILE_LANES 8
+#if defined(__GNUC__)  // GCC and Clang vector extensions
+#define FLATSCAN_VECTOR_LANES 1
 // The 32-byte vectors only pass between inlined helpers of this file (no ABI concern).
 #pragma GCC diagnostic ignored "-Wpsabi"
 namespace {
 
-using F8 = float __attribute__((vector_size(32)));
-using I8 = int32_t __attribute__((vector_size(32)));
-using B8 = uint8_t __attribute__((vector_size(8)));
-constexpr int kLanes = 8;
+#define FLATSCAN_INLINE inline __attribute__((always_inline))
 
-inline F8 Splat(float x) { return F8{} + x; }
-inline F8 And(I8 mask, F8 a) { return reinterpret_cast<F8>(mask & reinterpret_cast<I8>(a)); }
-inline F8 Select(I8 mask, F8 a, F8 b) {
-  return reinterpret_cast<F8>((mask & reinterpret_cast<I8>(a)) | (~mask & reinterpret_cast<I8>(b)));
-}
-inline F8 Abs(F8 a) { return reinterpret_cast<F8>(reinterpret_cast<I8>(a) & 0x7fffffff); }
-inline F8 Min(F8 a, F8 b) { return Select(a < b, a, b); }
-inline F8 Max(F8 a, F8 b) { return Select(a > b, a, b); }
+// N lanes of float / int32: 4 (SSE2, NEON) or 8 (AVX2).
+template <int N>
+struct LaneTypes;
+template <>
+struct LaneTypes<4> {
+  using F = float __attribute__((vector_size(16)));
+  using I = int32_t __attribute__((vector_size(16)));
+};
+template <>
+struct LaneTypes<8> {
+  using F = float __attribute__((vector_size(32)));
+  using I = int32_t __attribute__((vector_size(32)));
+};
+template <int N>
+struct Lanes {
+  using F = typename LaneTypes<N>::F;
+  using I = typename LaneTypes<N>::I;
+  static FLATSCAN_INLINE F Splat(float x) { return F{} + x; }
+  static FLATSCAN_INLINE F And(I mask, F a) { return reinterpret_cast<F>(mask & reinterpret_cast<I>(a)); }
+  static FLATSCAN_INLINE F Select(I mask, F a, F b) {
+    return reinterpret_cast<F>((mask & reinterpret_cast<I>(a)) | (~mask & reinterpret_cast<I>(b)));
+  }
+  static FLATSCAN_INLINE F Abs(F a) { return reinterpret_cast<F>(reinterpret_cast<I>(a) & 0x7fffffff); }
+  static FLATSCAN_INLINE F Min(F a, F b) { return Select(a < b, a, b); }
+  static FLATSCAN_INLINE F Max(F a, F b) { return Select(a > b, a, b); }
+  // exp(x) per lane (Cephes' single-precision polynomial after reduction by ln 2;
+  // relative error about 2e-7; x clamped to [-87, 87]).
+  static FLATSCAN_INLINE F Exp(F x) {
+    x = Min(Max(x, Splat(-87.0f)), Splat(87.0f));
+    const F fx = x * 1.44269504088896341f;
+    const I n = __builtin_convertvector(fx + Select(fx >= 0.0f, Splat(0.5f), Splat(-0.5f)), I);  // rounded
+    const F fn = __builtin_convertvector(n, F);
+    const F r = x - fn * 0.693359375f + fn * 2.12194440e-4f;
+    F p = Splat(1.9875691500e-4f);
+    p = p * r + 1.3981999507e-3f;
+    p = p * r + 8.3334519073e-3f;
+    p = p * r + 4.1665795894e-2f;
+    p = p * r + 1.6666665459e-1f;
+    p = p * r + 5.0000001201e-1f;
+    const F y = p * (r * r) + r + 1.0f;
+    return y * reinterpret_cast<F>((n + 127) << 23);
+  }
+};
 
-// exp(x) per lane (Cephes' single-precision polynomial after reduction by ln 2;
-// relative error about 2e-7; x clamped to [-87, 87]).
-inline F8 Exp8(F8 x) {
-  x = Min(Max(x, Splat(-87.0f)), Splat(87.0f));
-  const F8 fx = x * 1.44269504088896341f;
-  const I8 n = __builtin_convertvector(fx + Select(fx >= 0.0f, Splat(0.5f), Splat(-0.5f)), I8);  // rounded
-  const F8 fn = __builtin_convertvector(n, F8);
-  const F8 r = x - fn * 0.693359375f + fn * 2.12194440e-4f;
-  F8 p = Splat(1.9875691500e-4f);
-  p = p * r + 1.3981999507e-3f;
-  p = p * r + 8.3334519073e-3f;
-  p = p * r + 4.1665795894e-2f;
-  p = p * r + 1.6666665459e-1f;
-  p = p * r + 5.0000001201e-1f;
-  const F8 y = p * (r * r) + r + 1.0f;
-  return y * reinterpret_cast<F8>((n + 127) << 23);
-}
-
-// MeasureProfileCrossing's likelihood path for 8 profiles (lanes). `bytes[k * 8 + l]`
+// MeasureProfileCrossing's likelihood path for N profiles (lanes). `values[k * N + l]`
 // is pixel value k (k = 0 .. 11, at -5 .. 6 axis steps) of lane l.
-FLATSCAN_SIMD_CLONES void ProfileCrossings8(const uint8_t* bytes, const float* axis_length,
-                                            const float* profile_sigma, float window_sigma, float* position,
-                                            float* step, int32_t* valid) {
+template <int N>
+FLATSCAN_INLINE void ProfileCrossingsLanes(const int32_t* values, const float* axis_length,
+                                           const float* profile_sigma, float window_sigma, float* position,
+                                           float* step, int32_t* valid) {
+  using L = Lanes<N>;
+  using F = typename L::F;
+  using I = typename L::I;
   constexpr int kValues = 2 * kHalfWindow + 2, kDiffs = kValues - 1;
-  F8 value[kValues], d[kDiffs];
+  F value[kValues], d[kDiffs];
   for (int k = 0; k < kValues; ++k) {
-    B8 b;
-    std::memcpy(&b, bytes + kLanes * k, sizeof(b));
-    value[k] = __builtin_convertvector(b, F8);
+    I v;
+    std::memcpy(&v, values + N * k, sizeof(v));
+    value[k] = __builtin_convertvector(v, F);
   }
   for (int k = 0; k < kDiffs; ++k) d[k] = value[k + 1] - value[k];
-  const F8 zero = Splat(0.0f), one = Splat(1.0f);
+  const F zero = L::Splat(0.0f), one = L::Splat(1.0f);
   // Start at the unweighted centroid of the central +-2 differences.
-  F8 sum = zero, first = zero;
+  F sum = zero, first = zero;
   for (int k = kHalfWindow - 2; k <= kHalfWindow + 2; ++k) {
     sum += d[k];
     first += d[k] * (k - kHalfWindow + 0.5f);
   }
-  I8 ok = sum > 0.0f;
-  F8 x = Min(Max(first / Select(ok, sum, one), Splat(-1.0f)), one);
+  I ok = sum > 0.0f;
+  F x = L::Min(L::Max(first / L::Select(ok, sum, one), L::Splat(-1.0f)), one);
   // One step of the centroid under the Gaussian window (weights by recurrence:
   // w[k+1] = w[k] r[k], r[k+1] = r[k] exp(-2a)).
-  F8 length, sigma_px;
+  F length, sigma_px;
   std::memcpy(&length, axis_length, sizeof(length));
   std::memcpy(&sigma_px, profile_sigma, sizeof(sigma_px));
-  const F8 inv = length * (1.0f / window_sigma);
-  const F8 a = 0.5f * inv * inv;
+  const F inv = length * (1.0f / window_sigma);
+  const F a = 0.5f * inv * inv;
   constexpr float kPos0 = -kHalfWindow + 0.5f;
-  const F8 t0 = kPos0 - x;
-  F8 w = Exp8(-a * t0 * t0);
-  F8 r = Exp8(-a * (t0 + t0 + 1.0f));
-  const F8 q = Exp8(-a - a);
-  F8 sw = zero, sx = zero;
+  const F t0 = kPos0 - x;
+  F w = L::Exp(-a * t0 * t0);
+  F r = L::Exp(-a * (t0 + t0 + 1.0f));
+  const F q = L::Exp(-a - a);
+  F sw = zero, sx = zero;
   for (int k = 0; k < kDiffs; ++k) {
-    const F8 wd = w * d[k];
+    const F wd = w * d[k];
     sw += wd;
     sx += wd * (kPos0 + k);
     w *= r;
     r *= q;
   }
   ok &= sw > 0.0f;
-  x = Min(Max(sx / Select(ok, sw, one), Splat(-2.0f)), Splat(2.0f));
-  const F8 h = value[kValues - 1] - value[0], b = value[0];
-  ok &= (Abs(x) <= 1.5f) & (h > 0.0f);
+  x = L::Min(L::Max(sx / L::Select(ok, sw, one), L::Splat(-2.0f)), L::Splat(2.0f));
+  const F h = value[kValues - 1] - value[0], b = value[0];
+  ok &= (L::Abs(x) <= 1.5f) & (h > 0.0f);
   // One Gauss-Newton step of I_k = b + h Phi((k - x0) / sigma) on the values within
   // 3 sigma + 1 of the crossing (from the centroid, which is within a few hundredths
   // of a pixel, one step suffices). Phi by Abramowitz & Stegun 26.2.17 (error < 1e-7)
   // from the density, which follows k by recurrence from the centre outwards:
   // g(z + delta) = g(z) rho, rho <- rho exp(-delta^2), with g(z) = exp(-z^2 / 2).
-  const F8 sig = sigma_px / length;
-  const F8 inv_sig = one / sig;
-  const F8 reach = sig * 3.0f + 1.0f;
-  const F8 scale = h * inv_sig;  // h phi / sigma = scale g / sqrt(2 pi)
-  F8 a00 = zero, a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
-  auto term = [&](int k, const F8& g) {
-    const F8 offset = static_cast<float>(k - kHalfWindow) - x;
-    const I8 inside = Abs(offset) <= reach;
-    const F8 z = offset * inv_sig;
-    const F8 phi = g * 0.3989422804014327f;
-    const F8 t = one / (Abs(z) * 0.2316419f + 1.0f);
-    F8 poly = Splat(1.330274429f);
+  const F sig = sigma_px / length;
+  const F inv_sig = one / sig;
+  const F reach = sig * 3.0f + 1.0f;
+  const F scale = h * inv_sig;  // h phi / sigma = scale g / sqrt(2 pi)
+  F a00 = zero, a01 = zero, a02 = zero, a11 = zero, a12 = zero, a22 = zero, r0 = zero, r1 = zero, r2 = zero;
+  auto term = [&](int k, const F& g) {
+    const F offset = static_cast<float>(k - kHalfWindow) - x;
+    const I inside = L::Abs(offset) <= reach;
+    const F z = offset * inv_sig;
+    const F phi = g * 0.3989422804014327f;
+    const F t = one / (L::Abs(z) * 0.2316419f + 1.0f);
+    F poly = L::Splat(1.330274429f);
     poly = poly * t - 1.821255978f;
     poly = poly * t + 1.781477937f;
     poly = poly * t - 0.356563782f;
     poly = poly * t + 0.319381530f;
-    const F8 tail = phi * poly * t;  // 1 - Phi(|z|)
+    const F tail = phi * poly * t;  // 1 - Phi(|z|)
     // Phi(z) = 1/2 + sign(z) (1/2 - tail), zero outside the window.
-    const F8 side = reinterpret_cast<F8>(reinterpret_cast<I8>(0.5f - tail) ^
-                                         (reinterpret_cast<I8>(z) & static_cast<int32_t>(0x80000000u)));
-    const F8 cdf = And(inside, 0.5f + side);
-    const F8 j0 = And(inside, scale * phi);
-    const F8 res = And(inside, value[k] - b) - h * cdf;
+    const F side = reinterpret_cast<F>(reinterpret_cast<I>(0.5f - tail) ^
+                                       (reinterpret_cast<I>(z) & static_cast<int32_t>(0x80000000u)));
+    const F cdf = L::And(inside, 0.5f + side);
+    const F j0 = L::And(inside, scale * phi);
+    const F res = L::And(inside, value[k] - b) - h * cdf;
     a00 += j0 * j0, a01 += j0, a02 += j0 * cdf;
-    a11 += And(inside, one), a12 += cdf, a22 += cdf * cdf;
+    a11 += L::And(inside, one), a12 += cdf, a22 += cdf * cdf;
     r0 += j0 * res, r1 += res, r2 += cdf * res;
   };
-  const F8 zc = -x * inv_sig;  // z at k = kHalfWindow
-  const F8 g_centre = Exp8(-0.5f * zc * zc);
-  const F8 kappa = Exp8(-inv_sig * inv_sig);
-  const F8 half_d2 = 0.5f * inv_sig * inv_sig;
-  F8 g = g_centre, rho = Exp8(-zc * inv_sig - half_d2);  // forward: rho = exp(-(z delta + delta^2 / 2))
+  const F zc = -x * inv_sig;  // z at k = kHalfWindow
+  const F g_centre = L::Exp(-0.5f * zc * zc);
+  const F kappa = L::Exp(-inv_sig * inv_sig);
+  const F half_d2 = 0.5f * inv_sig * inv_sig;
+  F g = g_centre, rho = L::Exp(-zc * inv_sig - half_d2);  // forward: rho = exp(-(z delta + delta^2 / 2))
   for (int k = kHalfWindow; k < kValues; ++k) {
     term(k, g);
     g *= rho;
     rho *= kappa;
   }
   g = g_centre;
-  rho = Exp8(zc * inv_sig - half_d2);  // backward: delta -> -delta
+  rho = L::Exp(zc * inv_sig - half_d2);  // backward: delta -> -delta
   for (int k = kHalfWindow - 1; k >= 0; --k) {
     g *= rho;
     rho *= kappa;
     term(k, g);
   }
-  const F8 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
-  const F8 det = a00 * c00 + a01 * c01 + a02 * c02;
-  const I8 solvable = Abs(det) > 1e-12f;
-  const F8 inv_det = one / Select(solvable, det, one);
-  const F8 s0 = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
-  const F8 s2 = (c02 * r0 + (a01 * a02 - a00 * a12) * r1 + (a00 * a11 - a01 * a01) * r2) * inv_det;
+  const F c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const F det = a00 * c00 + a01 * c01 + a02 * c02;
+  const I solvable = L::Abs(det) > 1e-12f;
+  const F inv_det = one / L::Select(solvable, det, one);
+  const F s0 = (c00 * r0 + c01 * r1 + c02 * r2) * inv_det;
+  const F s2 = (c02 * r0 + (a01 * a02 - a00 * a12) * r1 + (a00 * a11 - a01 * a01) * r2) * inv_det;
   // Not a clean step: keep the centroid.
-  const I8 fitted = solvable & (Abs(s0) <= 1.0f) & (h + s2 > 0.0f);
-  const F8 result = Select(fitted, x - s0, x);
+  const I fitted = solvable & (L::Abs(s0) <= 1.0f) & (h + s2 > 0.0f);
+  const F result = L::Select(fitted, x - s0, x);
   std::memcpy(position, &result, sizeof(result));
   std::memcpy(step, &h, sizeof(h));
   std::memcpy(valid, &ok, sizeof(ok));
 }
 
-}  // namespace
-#endif
-
-void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRequest>& requests, double window_sigma,
-                             std::vector<ProfileCrossing>& out) {
-  const int n = static_cast<int>(requests.size());
-  out.resize(n);
-#ifdef FLATSCAN_PROFILE_LANES
+// MeasureProfileCrossings, N profiles at a time.
+template <int N>
+FLATSCAN_INLINE void MeasureInLanes(const cv::Mat1b& image, const std::vector<ProfileRequest>& requests,
+                                    double window_sigma, std::vector<ProfileCrossing>& out) {
   constexpr int kValues = 2 * kHalfWindow + 2;
+  const int n = static_cast<int>(requests.size());
   const ptrdiff_t row = static_cast<ptrdiff_t>(image.step[0]);
-  alignas(32) uint8_t bytes[kValues * kLanes];
-  alignas(32) float length[kLanes], sigma[kLanes], position[kLanes], step[kLanes];
-  alignas(32) int32_t valid[kLanes];
-  bool inside[kLanes];
-  for (int i0 = 0; i0 < n; i0 += kLanes) {
-    const int lanes = std::min(kLanes, n - i0);
-    for (int l = 0; l < kLanes; ++l) {
+  alignas(32) int32_t values[kValues * N];
+  alignas(32) float length[N], sigma[N], position[N], step[N];
+  alignas(32) int32_t valid[N];
+  bool inside[N];
+  for (int i0 = 0; i0 < n; i0 += N) {
+    const int lanes = std::min(N, n - i0);
+    for (int l = 0; l < N; ++l) {
       const ProfileRequest& q = requests[i0 + std::min(l, lanes - 1)];
       inside[l] = q.u - kHalfWindow - 1 >= 0 && q.v - kHalfWindow - 1 >= 0 && q.u + kHalfWindow + 1 < image.cols &&
                   q.v + kHalfWindow + 1 < image.rows;
       length[l] = static_cast<float>(q.axis.Length());
       sigma[l] = q.profile_sigma;
       if (!inside[l]) {
-        for (int k = 0; k < kValues; ++k) bytes[kLanes * k + l] = 0;
+        for (int k = 0; k < kValues; ++k) values[N * k + l] = 0;
         continue;
       }
       const ptrdiff_t stride = q.axis.du + q.axis.dv * row;
       const uint8_t* p = image.data + q.v * row + q.u - kHalfWindow * stride;
-      for (int k = 0; k < kValues; ++k) bytes[kLanes * k + l] = p[k * stride];
+      for (int k = 0; k < kValues; ++k) values[N * k + l] = p[k * stride];
     }
-    ProfileCrossings8(bytes, length, sigma, static_cast<float>(window_sigma), position, step, valid);
+    ProfileCrossingsLanes<N>(values, length, sigma, static_cast<float>(window_sigma), position, step, valid);
     for (int l = 0; l < lanes; ++l) {
       ProfileCrossing& c = out[i0 + l];
       c = ProfileCrossing();
@@ -363,8 +378,32 @@ void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRe
       c.valid = true;
     }
   }
+}
+
+#if defined(__x86_64__) && !defined(__clang__)
+#define FLATSCAN_AVX2_LANES 1
+__attribute__((target("arch=x86-64-v3"))) void MeasureInEightLanes(const cv::Mat1b& image,
+                                                                   const std::vector<ProfileRequest>& requests,
+                                                                   double window_sigma,
+                                                                   std::vector<ProfileCrossing>& out) {
+  MeasureInLanes<8>(image, requests, window_sigma, out);
+}
+#endif
+
+}  // namespace
+#endif
+
+void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRequest>& requests, double window_sigma,
+                             std::vector<ProfileCrossing>& out) {
+  out.resize(requests.size());
+#if defined(FLATSCAN_AVX2_LANES)
+  static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  if (avx2) return MeasureInEightLanes(image, requests, window_sigma, out);
+#endif
+#if defined(FLATSCAN_VECTOR_LANES)
+  MeasureInLanes<4>(image, requests, window_sigma, out);
 #else
-  for (int i = 0; i < n; ++i)
+  for (size_t i = 0; i < requests.size(); ++i)
     out[i] = MeasureProfileCrossing(image, requests[i].u, requests[i].v, requests[i].axis, window_sigma,
                                     requests[i].profile_sigma);
 #endif
