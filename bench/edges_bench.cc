@@ -7,8 +7,15 @@
 //                              options; target <= 4 ms per frame
 //   BM_CannyBacklitFrame       cv::Canny alone on that frame (issue: about 5 ms)
 //   BM_CannyTexturedFrame      cv::Canny alone on the textured frame
+//   BM_FusedCannyTexturedFrame the detector's own Canny (canny.h) alone on it; counter
+//                              differences_vs_cv: pixels that differ from cv::Canny's
+//   BM_ProfileCrossingStage/A  per-point cost of the profile refinement on the textured
+//                              frame's Canny pixels (A: 0 one at a time, 1 centroid
+//                              only, 2 batched as the detector runs it)
+//   BM_SmoothChainStage        per-point cost of the chain smoothing
 // M: 0 canny (pixel level), 1 zernike, 2 blur-model. Counters: ms_per_MP, ms_per_frame,
-// points, edge_pixels (Canny pixels considered).
+// points, edge_pixels (Canny pixels considered). The machine may be shared: repeat
+// (--benchmark_repetitions=5) and read the minimum or the median.
 //   build/edges_bench --benchmark_counters_tabular=true
 #include <chrono>
 
