@@ -7,8 +7,15 @@
 //                              options; target <= 4 ms per frame
 //   BM_CannyBacklitFrame       cv::Canny alone on that frame (issue: about 5 ms)
 //   BM_CannyTexturedFrame      cv::Canny alone on the textured frame
+//   BM_FusedCannyTexturedFrame the detector's own Canny (canny.h) alone on it; counter
+//                              differences_vs_cv: pixels that differ from cv::Canny's
+//   BM_ProfileCrossingStage/A  per-point cost of the profile refinement on the textured
+//                              frame's Canny pixels (A: 0 one at a time, 1 centroid
+//                              only, 2 batched as the detector runs it)
+//   BM_SmoothChainStage        per-point cost of the chain smoothing
 // M: 0 canny (pixel level), 1 zernike, 2 blur-model. Counters: ms_per_MP, ms_per_frame,
-// points, edge_pixels (Canny pixels considered).
+// points, edge_pixels (Canny pixels considered). The machine may be shared: repeat
+// (--benchmark_repetitions=5) and read the minimum or the median.
 //   build/edges_bench --benchmark_counters_tabular=true
 #include <chrono>
 
@@ -18,6 +25,8 @@
 #include <tbb/global_control.h>
 
 #include "flatscan/boundary/boundary.h"
+#include "flatscan/boundary/canny.h"
+#include "flatscan/boundary/edge_refinement.h"
 #include "flatscan/simulation/dataset.h"
 #include "flatscan/simulation/image_formation.h"
 #include "flatscan/util/random.h"
@@ -154,6 +163,108 @@ BENCHMARK(BM_CannyBacklitFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_CannyTexturedFrame(benchmark::State& state) { CannyOn(state, TexturedFrame()); }
 BENCHMARK(BM_CannyTexturedFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The detector's own fused Canny (canny.h) alone on the textured frame.
+void BM_FusedCannyTexturedFrame(benchmark::State& state) {
+  const cv::Mat1b& image = TexturedFrame();
+  const BoundaryOptions defaults;
+  cv::Mat1b map(image.rows + 2, image.cols + 2);
+  std::vector<uint8_t*> stack;
+  Timed(state, image, [&] {
+    CannyInto(image, cv::Rect(1, 1, image.cols - 2, image.rows - 2),
+              CannyThresholds::FromL2(defaults.canny_low, defaults.canny_high), map.ptr<uint8_t>(2) + 2,
+              static_cast<std::ptrdiff_t>(map.step1()), stack);
+    benchmark::DoNotOptimize(map.data);
+  });
+  const cv::Rect inside(2, 2, image.cols - 4, image.rows - 4);
+  cv::Mat1b expected;
+  cv::Canny(image, expected, defaults.canny_low, defaults.canny_high, 3, true);
+  cv::Mat1b ours = map(inside + cv::Point(1, 1)) == kCannyEdge;
+  state.counters["edge_pixels"] = cv::countNonZero(ours);
+  state.counters["differences_vs_cv"] = cv::countNonZero(ours != expected(inside));
+}
+BENCHMARK(BM_FusedCannyTexturedFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Stage costs on the textured frame's Canny pixels (ns per point): the profile
+// crossing with the likelihood step (blur sigma 1), and the chain smoothing.
+struct CannyPixels {
+  std::vector<cv::Point> pixels;
+  std::vector<ProfileAxis> axes;
+  std::vector<double> sigmas;
+};
+const CannyPixels& TexturedCannyPixels() {
+  static const CannyPixels data = [] {
+    CannyPixels d;
+    const cv::Mat1b& image = TexturedFrame();
+    cv::Mat1b edges;
+    cv::Canny(image, edges, 40, 100, 3, true);
+    for (int v = 8; v < image.rows - 8; ++v)
+      for (int u = 8; u < image.cols - 8; ++u) {
+        if (!edges(v, u)) continue;
+        const double gx = (image(v - 1, u + 1) + 2 * image(v, u + 1) + image(v + 1, u + 1)) -
+                          (image(v - 1, u - 1) + 2 * image(v, u - 1) + image(v + 1, u - 1));
+        const double gy = (image(v + 1, u - 1) + 2 * image(v + 1, u) + image(v + 1, u + 1)) -
+                          (image(v - 1, u - 1) + 2 * image(v - 1, u) + image(v - 1, u + 1));
+        const Eigen::Vector2d n = Eigen::Vector2d(gx, gy).normalized();
+        const ProfileAxis a = ClosestProfileAxis(n);
+        d.pixels.push_back({u, v});
+        d.axes.push_back(a);
+        d.sigmas.push_back(std::sqrt(1.0 + 1.0 / 12) * a.Length() / std::abs(n.dot(Eigen::Vector2d(a.du, a.dv))));
+      }
+    return d;
+  }();
+  return data;
+}
+
+// Arg 0: one pixel at a time with the likelihood step, 1: centroid only, 2: batched
+// (MeasureProfileCrossings, SIMD lanes), as the detector runs it.
+void BM_ProfileCrossingStage(benchmark::State& state) {
+  const CannyPixels& d = TexturedCannyPixels();
+  const cv::Mat1b& image = TexturedFrame();
+  std::vector<ProfileRequest> requests(d.pixels.size());
+  for (size_t i = 0; i < d.pixels.size(); ++i)
+    requests[i] = {d.pixels[i].x, d.pixels[i].y, d.axes[i], static_cast<float>(d.sigmas[i])};
+  std::vector<ProfileCrossing> out;
+  double sum = 0;
+  for (auto _ : state) {
+    if (state.range(0) == 2) {
+      MeasureProfileCrossings(image, requests, 1.2, out);
+      sum += out[0].position;
+    } else {
+      for (size_t i = 0; i < d.pixels.size(); ++i)
+        sum += MeasureProfileCrossing(image, d.pixels[i].x, d.pixels[i].y, d.axes[i], 1.2,
+                                      state.range(0) ? 0.0 : d.sigmas[i]).position;
+    }
+    benchmark::DoNotOptimize(sum);
+  }
+  state.counters["time_per_point"] = benchmark::Counter(static_cast<double>(d.pixels.size()) * state.iterations(),
+                                                        benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ProfileCrossingStage)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+void BM_SmoothChainStage(benchmark::State& state) {
+  // A closed chain along a circle of radius 40 px with noise, 160 k points in chains of 250.
+  std::vector<std::vector<ChainPoint>> chains(640);
+  Random rng(3);
+  for (auto& chain : chains)
+    for (int i = 0; i < 250; ++i) {
+      const double a = 2 * M_PI * i / 250;
+      ChainPoint p;
+      p.normal = Eigen::Vector2d(std::cos(a), std::sin(a));
+      p.p = (40 + rng.Normal(0, 0.02)) * p.normal;
+      chain.push_back(p);
+    }
+  for (auto _ : state) {
+    for (auto& chain : chains) {
+      std::vector<ChainPoint> copy = chain;
+      SmoothAndCorrectChain(copy, true, 1.08);
+      benchmark::DoNotOptimize(copy.data());
+    }
+  }
+  state.counters["time_per_point"] = benchmark::Counter(640.0 * 250 * state.iterations(),
+                                                      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_SmoothChainStage)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace flatscan

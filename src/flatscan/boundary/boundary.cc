@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "flatscan/boundary/canny.h"
 #include "flatscan/boundary/edge_refinement.h"
 #include "flatscan/boundary/part_region.h"
 #include "flatscan/boundary/zernike.h"
@@ -22,77 +25,131 @@ struct Pixel {
   int u, v;
 };
 
-// Canny edge pixels inside `regions`, written into `edges` (255), which is zeroed
-// only over the regions grown by 1 px (all that the chaining reads).
-std::vector<Pixel> FindEdgePixels(const cv::Mat1b& image, const std::vector<cv::Rect>& regions,
-                                  const BoundaryOptions& options, cv::Mat1b& edges) {
-  const cv::Rect whole(0, 0, image.cols, image.rows);
+// Edge pixels of the regions as kCannyEdge in `map`, a byte map of the image with a
+// one-pixel frame (map(v + 1, u + 1) is pixel (u, v)). Canny runs on each region
+// grown by kCannyMargin; only pixels of the region inside the image less kBorder
+// count. Elsewhere the map is defined (not an edge) over the regions grown by 1 px,
+// all that the chaining reads.
+void FindEdgePixels(const cv::Mat1b& image, const std::vector<cv::Rect>& regions, const BoundaryOptions& options,
+                    cv::Mat1b& map) {
+  const cv::Rect computable(1, 1, image.cols - 2, image.rows - 2);  // where the 3x3 Sobel fits
   const cv::Rect inner(kBorder, kBorder, image.cols - 2 * kBorder, image.rows - 2 * kBorder);
-  for (const cv::Rect& r : regions) edges(cv::Rect(r.x - 1, r.y - 1, r.width + 2, r.height + 2) & whole).setTo(0);
-  std::vector<Pixel> pixels;
+  const CannyThresholds thresholds = CannyThresholds::FromL2(options.canny_low, options.canny_high);
+  map.create(image.rows + 2, image.cols + 2);
+  const std::ptrdiff_t step = static_cast<std::ptrdiff_t>(map.step1());
+  uint8_t* origin = map.ptr<uint8_t>(1) + 1;  // pixel (0, 0)
+  auto at = [&](int u, int v) { return origin + v * step + u; };
+  auto grow = [](const cv::Rect& r, int by) { return cv::Rect(r.x - by, r.y - by, r.width + 2 * by, r.height + 2 * by); };
+  // Keeps only the edge pixels of `core` in the map over `area` (core inside area).
+  auto clear_outside = [&](const cv::Rect& area, const cv::Rect& core) {
+    for (int v = area.y; v < area.br().y; ++v) {
+      uint8_t* row = at(0, v);
+      if (v < core.y || v >= core.br().y) {
+        std::memset(row + area.x, kCannyNone, area.width);
+      } else {
+        std::memset(row + area.x, kCannyNone, core.x - area.x);
+        std::memset(row + core.br().x, kCannyNone, area.br().x - core.br().x);
+      }
+    }
+  };
+  thread_local std::vector<uint8_t*> stack;
+  if (regions.size() == 1) {  // straight into the map
+    const cv::Rect grown = grow(regions[0], kCannyMargin) & computable;
+    const cv::Rect core = regions[0] & inner;
+    CannyInto(image, grown, thresholds, at(grown.x, grown.y), step, stack);
+    if (core.empty()) {
+      clear_outside(grown, cv::Rect(grown.x, grown.y, 0, 0));
+    } else {
+      clear_outside(grown, core);
+    }
+    return;
+  }
+  const cv::Rect framed(-1, -1, image.cols + 2, image.rows + 2);
+  for (const cv::Rect& r : regions) {
+    const cv::Rect area = grow(r, 1) & framed;
+    for (int v = area.y; v < area.br().y; ++v) std::memset(at(area.x, v), kCannyNone, area.width);
+  }
   cv::Mat1b local;
   for (const cv::Rect& r : regions) {
-    const cv::Rect grown = cv::Rect(r.x - kCannyMargin, r.y - kCannyMargin, r.width + 2 * kCannyMargin,
-                                    r.height + 2 * kCannyMargin) & whole;
-    cv::Canny(image(grown), local, options.canny_low, options.canny_high, 3, true);
+    const cv::Rect grown = grow(r, kCannyMargin) & computable;
     const cv::Rect core = r & inner;
+    if (core.empty()) continue;
+    local.create(grown.height + 2, grown.width + 2);
+    CannyInto(image, grown, thresholds, local.ptr<uint8_t>(1) + 1, static_cast<std::ptrdiff_t>(local.step1()), stack);
     for (int v = core.y; v < core.br().y; ++v) {
-      const uint8_t* row = local.ptr<uint8_t>(v - grown.y) + (core.x - grown.x);
-      uint8_t* out = edges.ptr<uint8_t>(v);
+      const uint8_t* in = local.ptr<uint8_t>(v - grown.y + 1) + 1 + (core.x - grown.x);
+      uint8_t* out = at(core.x, v);
       for (int u = 0; u < core.width; ++u)
-        if (row[u]) {
-          out[core.x + u] = 255;
-          pixels.push_back({core.x + u, v});
-        }
+        if (in[u] == kCannyEdge) out[u] = kCannyEdge;
     }
   }
-  return pixels;
 }
 
-// Orders edge pixels into 8-connected chains: from each unvisited pixel walk forward
-// then backward, preferring 4-neighbours.
-struct PixelChain {
-  std::vector<int> indices;
-  bool closed = false;
+// Edge pixels ordered into 8-connected chains: chain k is pixels[begin[k], begin[k + 1]).
+struct PixelChains {
+  std::vector<Pixel> pixels;
+  std::vector<int> begin{0};
+  int size() const { return static_cast<int>(begin.size()) - 1; }
+  int length(int k) const { return begin[k + 1] - begin[k]; }
 };
 
-std::vector<PixelChain> ChainPixels(const std::vector<Pixel>& pixels, const cv::Mat1b& edges, cv::Mat1i& index) {
-  for (size_t i = 0; i < pixels.size(); ++i) index(pixels[i].v, pixels[i].u) = static_cast<int>(i);
-  std::vector<uint8_t> visited(pixels.size(), 0);
+// From each unvisited edge pixel (regions in order, raster order inside each) walk
+// forward then backward, preferring 4-neighbours. Visited pixels are marked in `map`.
+PixelChains ChainPixels(const cv::Mat1b& image, const std::vector<cv::Rect>& regions, cv::Mat1b& map) {
+  constexpr uint8_t kVisited = 3;
   static const int kOffsets[8][2] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}, {1, 1}, {-1, 1}, {-1, -1}, {1, -1}};
-  auto next_of = [&](int i) {
-    for (const auto& o : kOffsets) {
-      const int u = pixels[i].u + o[0], v = pixels[i].v + o[1];
-      if (u < 0 || v < 0 || u >= edges.cols || v >= edges.rows || !edges(v, u)) continue;
-      const int j = index(v, u);
-      if (!visited[j]) return j;
+  const std::ptrdiff_t step = static_cast<std::ptrdiff_t>(map.step1());
+  uint8_t* origin = map.ptr<uint8_t>(1) + 1;
+  std::ptrdiff_t offsets[8];
+  for (int k = 0; k < 8; ++k) offsets[k] = kOffsets[k][0] + kOffsets[k][1] * step;
+  const cv::Rect inner(kBorder, kBorder, image.cols - 2 * kBorder, image.rows - 2 * kBorder);
+  PixelChains chains;
+  std::vector<Pixel> backward;
+  // Appends the walk from p (excluded) to `out`, marking it.
+  auto walk = [&](Pixel p, std::vector<Pixel>& out) {
+    uint8_t* m = origin + p.v * step + p.u;
+    for (;;) {
+      int k = 0;
+      while (k < 8 && m[offsets[k]] != kCannyEdge) ++k;
+      if (k == 8) return;
+      m += offsets[k];
+      *m = kVisited;
+#if defined(__GNUC__)
+      // The map has left the caches since Canny: fetch where the walk is heading.
+      __builtin_prefetch(m + 4 * offsets[k]);
+#endif
+      p = {p.u + kOffsets[k][0], p.v + kOffsets[k][1]};
+      out.push_back(p);
     }
-    return -1;
   };
-  std::vector<PixelChain> chains;
-  std::vector<int> backward;
-  for (size_t s = 0; s < pixels.size(); ++s) {
-    if (visited[s]) continue;
-    PixelChain chain;
-    visited[s] = 1;
-    chain.indices.push_back(static_cast<int>(s));
-    for (int j = next_of(static_cast<int>(s)); j >= 0; j = next_of(j)) {
-      visited[j] = 1;
-      chain.indices.push_back(j);
+  for (const cv::Rect& r : regions) {
+    const cv::Rect core = r & inner;
+    for (int v = core.y; v < core.br().y; ++v) {
+      uint8_t* row = origin + v * step;
+      int u = core.x;
+      const int end = core.br().x;
+      while (u < end) {
+#if CV_SIMD128
+        if (u + 16 <= end && !cv::v_check_any(cv::v_load(row + u) == cv::v_setall_u8(kCannyEdge))) {
+          u += 16;
+          continue;
+        }
+#endif
+        if (row[u] != kCannyEdge) {
+          ++u;
+          continue;
+        }
+        row[u] = kVisited;
+        const size_t first = chains.pixels.size();
+        chains.pixels.push_back({u, v});
+        walk({u, v}, chains.pixels);
+        backward.clear();
+        walk({u, v}, backward);
+        if (!backward.empty()) chains.pixels.insert(chains.pixels.begin() + first, backward.rbegin(), backward.rend());
+        chains.begin.push_back(static_cast<int>(chains.pixels.size()));
+        ++u;
+      }
     }
-    backward.clear();
-    for (int j = next_of(static_cast<int>(s)); j >= 0; j = next_of(j)) {
-      visited[j] = 1;
-      backward.push_back(j);
-    }
-    if (!backward.empty()) {
-      std::reverse(backward.begin(), backward.end());
-      chain.indices.insert(chain.indices.begin(), backward.begin(), backward.end());
-    }
-    const Pixel& a = pixels[chain.indices.front()];
-    const Pixel& b = pixels[chain.indices.back()];
-    chain.closed = chain.indices.size() > 4 && std::abs(a.u - b.u) <= 1 && std::abs(a.v - b.v) <= 1;
-    chains.push_back(std::move(chain));
   }
   return chains;
 }
@@ -147,22 +204,22 @@ bool MeasurePoint(const cv::Mat1b& image, const Pixel& px, const BoundaryOptions
 
 // Blur (PSF plus pixel box variance, px^2) from the second moments of profiles at
 // about 600 edge pixels spread over the chains.
-double EstimateBlurVarianceFromPixels(const cv::Mat1b& image, const std::vector<Pixel>& pixels,
-                                      const std::vector<PixelChain>& chains, const BoundaryOptions& options) {
+double EstimateBlurVarianceFromPixels(const cv::Mat1b& image, const PixelChains& chains,
+                                      const BoundaryOptions& options) {
   size_t total = 0;
-  for (const PixelChain& pc : chains)
-    if (static_cast<int>(pc.indices.size()) >= options.min_contour_points) total += pc.indices.size();
+  for (int c = 0; c < chains.size(); ++c)
+    if (chains.length(c) >= options.min_contour_points) total += chains.length(c);
   const size_t stride = std::max<size_t>(1, total / 600);  // the median of 600 is within ~1%
   std::vector<ProfileCrossing> profiles;
   std::vector<double> cosines;
   size_t k = 0;
-  for (const PixelChain& pc : chains) {
-    if (static_cast<int>(pc.indices.size()) < options.min_contour_points) continue;
-    for (int i : pc.indices) {
+  for (int c = 0; c < chains.size(); ++c) {
+    if (chains.length(c) < options.min_contour_points) continue;
+    for (int i = chains.begin[c]; i < chains.begin[c + 1]; ++i) {
       if (k++ % stride) continue;
       ChainPoint point;
       ProfileCrossing profile;
-      if (!MeasurePoint(image, pixels[i], options, kWindowPerBlurSigma * 1.04, 0.0, &point, &profile)) continue;
+      if (!MeasurePoint(image, chains.pixels[i], options, kWindowPerBlurSigma * 1.04, 0.0, &point, &profile)) continue;
       profiles.push_back(profile);
       cosines.push_back(std::abs(point.normal.dot(Eigen::Vector2d(point.axis.du, point.axis.dv))) / point.axis.Length());
     }
@@ -190,44 +247,90 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
   } else {
     result.regions.push_back(cv::Rect(0, 0, image.cols, image.rows));
   }
-  cv::Mat1b edges(image.size());
-  const std::vector<Pixel> pixels = FindEdgePixels(image, result.regions, options, edges);
-  result.edge_pixels = static_cast<int>(pixels.size());
-  cv::Mat1i index(image.size());
-  const std::vector<PixelChain> pixel_chains = ChainPixels(pixels, edges, index);
+  cv::Mat1b map;
+  FindEdgePixels(image, result.regions, options, map);
+  const PixelChains pixel_chains = ChainPixels(image, result.regions, map);
+  result.edge_pixels = static_cast<int>(pixel_chains.pixels.size());
 
   const bool model = options.method == EdgeMethod::kBlurModel;
   double blur_variance = options.blur_sigma_px > 0 ? options.blur_sigma_px * options.blur_sigma_px + 1.0 / 12.0 : 0.0;
-  if (model && blur_variance <= 0) blur_variance = EstimateBlurVarianceFromPixels(image, pixels, pixel_chains, options);
+  if (model && blur_variance <= 0) blur_variance = EstimateBlurVarianceFromPixels(image, pixel_chains, options);
   // The window's width follows the blur, so that the centroid's curvature response is
   // the one the correction assumes (edge_refinement.h).
   const double window_sigma = std::max(1.2, kWindowPerBlurSigma * std::sqrt(blur_variance));
-  std::vector<std::vector<ChainPoint>> chains;
-  for (const PixelChain& pc : pixel_chains) {
-    if (static_cast<int>(pc.indices.size()) < options.min_contour_points) continue;
-    std::vector<ChainPoint> chain;
-    chain.reserve(pc.indices.size());
-    for (int i : pc.indices) {
-      ChainPoint point;
-      ProfileCrossing profile;
-      if (!MeasurePoint(image, pixels[i], options, window_sigma, blur_variance, &point, &profile)) continue;
-      if (!chain.empty() && (chain.back().p - point.p).squaredNorm() < 0.25 * 0.25) continue;  // same crossing
-      chain.push_back(point);
-    }
-    if (static_cast<int>(chain.size()) >= options.min_contour_points) chains.push_back(std::move(chain));
-  }
   result.blur_sigma_px = std::sqrt(std::max(blur_variance - 1.0 / 12.0, 0.0));
-
-  for (size_t c = 0; c < chains.size(); ++c) {
-    std::vector<ChainPoint>& chain = chains[c];
+  result.points.reserve(pixel_chains.pixels.size());
+  std::vector<ChainPoint> chain;
+  std::vector<ProfileRequest> requests;
+  std::vector<Eigen::Vector2d> normals;
+  std::vector<ProfileCrossing> crossings;
+  const double blur_sigma = std::sqrt(std::max(blur_variance, 0.0));
+  for (int c = 0; c < pixel_chains.size(); ++c) {
+    if (pixel_chains.length(c) < options.min_contour_points) continue;
+    chain.clear();
+    const Pixel* pixels = &pixel_chains.pixels[pixel_chains.begin[c]];
+    const int count = pixel_chains.length(c);
+    auto add = [&](const ChainPoint& point) {
+      if (!chain.empty() && (chain.back().p - point.p).squaredNorm() < 0.25 * 0.25) return;  // same crossing
+      chain.push_back(point);
+    };
+    if (model) {  // the profiles of the whole chain at once (SIMD lanes)
+      requests.clear();
+      normals.clear();
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(image.step[0]);
+      for (int i = 0; i < count; ++i) {
+#if defined(__GNUC__)
+        // The image has left the caches since Canny: fetch the rows of the profile
+        // (and the Sobel window) of a pixel some way down the chain.
+        constexpr int kAhead = 12;
+        if (i + kAhead < count) {
+          const uint8_t* ahead = image.data + pixels[i + kAhead].v * row + pixels[i + kAhead].u;
+          for (int k = -kBorder; k <= kBorder; ++k) __builtin_prefetch(ahead + k * row);
+        }
+#endif
+        const uint8_t* c = image.data + pixels[i].v * row + pixels[i].u;
+        const int gx = (c[1 - row] + 2 * c[1] + c[1 + row]) - (c[-1 - row] + 2 * c[-1] + c[-1 + row]);
+        const int gy = (c[row - 1] + 2 * c[row] + c[row + 1]) - (c[-row - 1] + 2 * c[-row] + c[-row + 1]);
+        if (gx == 0 && gy == 0) continue;
+        ProfileRequest q;
+        q.u = pixels[i].u;
+        q.v = pixels[i].v;
+        q.axis = ClosestProfileAxis(Eigen::Vector2d(gx, gy));
+        // The edge profile's sigma along the axis: sigma / cos(normal, axis).
+        const double norm = std::sqrt(static_cast<double>(gx * gx + gy * gy));
+        const double dot = std::abs(gx * q.axis.du + gy * q.axis.dv);
+        q.profile_sigma = static_cast<float>(blur_sigma * norm * q.axis.Length() / dot);
+        requests.push_back(q);
+        normals.push_back(Eigen::Vector2d(gx, gy) / norm);
+      }
+      MeasureProfileCrossings(image, requests, window_sigma, crossings);
+      for (size_t i = 0; i < requests.size(); ++i) {
+        if (!crossings[i].valid) continue;
+        const ProfileRequest& q = requests[i];
+        ChainPoint point;
+        point.axis = q.axis;
+        point.p = Eigen::Vector2d(q.u + crossings[i].position * q.axis.du, q.v + crossings[i].position * q.axis.dv);
+        point.normal = normals[i];
+        point.step = crossings[i].step;
+        add(point);
+      }
+    } else {
+      for (int i = 0; i < count; ++i) {
+        ChainPoint point;
+        ProfileCrossing profile;
+        if (MeasurePoint(image, pixels[i], options, window_sigma, blur_variance, &point, &profile)) add(point);
+      }
+    }
+    if (static_cast<int>(chain.size()) < options.min_contour_points) continue;
     const bool closed = chain.size() > 4 && (chain.front().p - chain.back().p).norm() < 2.0;
     if (model) SmoothAndCorrectChain(chain, closed, blur_variance);
     ContourInfo info;
     info.begin = static_cast<int>(result.points.size());
     info.closed = closed;
+    const int id = static_cast<int>(result.contours.size());
     for (size_t i = 0; i < chain.size(); ++i) {
       const ChainPoint& p = chain[i];
-      result.points.push_back({p.p.x(), p.p.y(), p.normal.x(), p.normal.y(), p.step, static_cast<int>(c)});
+      result.points.push_back({p.p.x(), p.p.y(), p.normal.x(), p.normal.y(), p.step, id});
       if (i > 0) info.length_px += (p.p - chain[i - 1].p).norm();
     }
     if (closed) info.length_px += (chain.front().p - chain.back().p).norm();

@@ -1,12 +1,14 @@
 #pragma once
 // Sub-pixel boundary detection (DESIGN section 2, step 2; paper section 2.2).
 //
-// Pipeline: Canny gives integer edge pixels, restricted to a band around the part
-// found on a 4x reduced image (so cost grows with the boundary's length, not the
-// image's area); a 7x7 Zernike-moment operator (Ghosal-Mehrotra) gives each pixel's
-// edge direction and step height; the position is then refined with a model of the
-// blurred edge (see edge_refinement.h) that removes the operator's blur bias; points
-// are chained into ordered contours (outer boundary and holes, each its own id).
+// Pipeline: Canny gives integer edge pixels (our fused implementation, canny.h, with
+// cv::Canny's decisions), restricted to a band around the part found on a 4x reduced
+// image (so cost grows with the boundary's length, not the image's area); the pixels
+// are chained into ordered contours (outer boundary and holes, each its own id); each
+// pixel's position is refined along the grid direction nearest its Sobel normal with
+// a model of the blurred edge (see edge_refinement.h; the 7x7 Zernike-moment operator
+// of Ghosal-Mehrotra is the reference method kZernike), and the chain is smoothed by
+// local circle fits with a curvature correction.
 //
 // Conventions: pixel (u, v) integer coordinates are pixel centres. The normal
 // (nx, ny) is a unit vector pointing from dark to bright; `step` is the grey-level
@@ -35,7 +37,7 @@ struct ContourInfo {
 enum class EdgeMethod {
   kCannyPixel,  // integer Canny pixels (reference row)
   kZernike,     // plain Ghosal-Mehrotra 7x7 operator (the paper's refinement; reference row)
-  kBlurModel,   // ours: Zernike direction + blurred-edge model refinement
+  kBlurModel,   // ours: Sobel direction + blurred-edge model refinement
 };
 
 struct BoundaryOptions {

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "flatscan/boundary/canny.h"
+#include "flatscan/boundary/edge_refinement.h"
 #include "flatscan/boundary/zernike.h"
 #include "flatscan/simulation/coverage_renderer.h"
 #include "flatscan/simulation/image_formation.h"
@@ -121,6 +123,84 @@ TEST(Boundary, CrossRowsInterpolatesTheChainAtEveryRow) {
     EXPECT_NEAR(rc.x, c.x() + 5 + (rc.x > c.x() + 5 ? 1 : -1) * std::sqrt(400.0 - dy * dy), 0.05) << rc.row;
   }
   EXPECT_EQ(shifted_count, 2 * (58 - 23 + 1));
+}
+
+TEST(Boundary, FusedCannyGivesCvCannysEdgeSet) {
+  // Random blurred shapes and noise, with a constant 3 px frame so that cv::Canny's
+  // border handling plays no part.
+  cv::RNG rng(5);
+  for (int trial = 0; trial < 4; ++trial) {
+    cv::Mat1b img(157 + trial, 203 + 3 * trial, uint8_t(120));
+    for (int i = 0; i < 40; ++i)
+      cv::circle(img, cv::Point(rng.uniform(0, img.cols), rng.uniform(0, img.rows)), rng.uniform(2, 30),
+                 rng.uniform(0, 256), i % 2 ? cv::FILLED : 2, cv::LINE_AA);
+    cv::GaussianBlur(img, img, cv::Size(5, 5), 0.8 + 0.2 * trial);
+    cv::Mat1s noise(img.size());
+    rng.fill(noise, cv::RNG::NORMAL, 0, 2 + trial);
+    cv::add(img, noise, img, cv::noArray(), CV_8U);
+    img.rowRange(0, 3).setTo(120), img.rowRange(img.rows - 3, img.rows).setTo(120);
+    img.colRange(0, 3).setTo(120), img.colRange(img.cols - 3, img.cols).setTo(120);
+    for (const auto& [low, high] : {std::pair{40.0, 100.0}, std::pair{10.0, 30.0}, std::pair{70.5, 70.5}}) {
+      cv::Mat1b expected;
+      cv::Canny(img, expected, low, high, 3, true);
+      cv::Mat1b map(img.rows + 2, img.cols + 2, uint8_t(7));
+      std::vector<uint8_t*> stack;
+      const cv::Rect rect(1, 1, img.cols - 2, img.rows - 2);
+      CannyInto(img, rect, CannyThresholds::FromL2(low, high), map.ptr<uint8_t>(2) + 2, map.step1(), stack);
+      int differences = 0, edges = 0;
+      for (int v = 0; v < img.rows; ++v)
+        for (int u = 0; u < img.cols; ++u) {
+          const bool ours = rect.contains({u, v}) && map(v + 1, u + 1) == kCannyEdge;
+          differences += ours != (expected(v, u) != 0);
+          edges += ours;
+        }
+      EXPECT_EQ(differences, 0) << trial << " " << low;
+      EXPECT_GT(edges, 300) << trial << " " << low;
+      // The frame is set, the rest of the map is untouched.
+      EXPECT_EQ(map(1, 5), kCannyNone);
+      EXPECT_EQ(map(0, 5), 7);
+    }
+  }
+}
+
+TEST(Boundary, BatchedProfileCrossingsMatchOneAtATime) {
+  // Blurred noisy edges in every direction, profiles along every axis, with the blur
+  // given wrong by up to 40%; also pixels too near the border (invalid).
+  const Eigen::Vector2d c(60.2, 59.6);
+  const cv::Mat1b img = RenderShape(
+      120, 120, [&](const Eigen::Vector2d& p) { return (p - c).norm() - 30.0; }, 1.2, 3.0, 9,
+      {c + Eigen::Vector2d(-30, -30), c + Eigen::Vector2d(30, 30)});
+  std::vector<ProfileRequest> requests;
+  cv::RNG rng(2);
+  for (int i = 0; i < 400; ++i) {
+    const double a = 2 * M_PI * i / 400;
+    const Eigen::Vector2d n(std::cos(a), std::sin(a));
+    const Eigen::Vector2d p = c + (30 + rng.uniform(-1.0, 1.0)) * n;
+    ProfileRequest q;
+    q.u = static_cast<int>(std::lround(p.x()));
+    q.v = static_cast<int>(std::lround(p.y()));
+    q.axis = ClosestProfileAxis(n);
+    q.profile_sigma = static_cast<float>(rng.uniform(0.8, 1.7));
+    requests.push_back(q);
+  }
+  requests.push_back({3, 50, ProfileAxis{1, 0}, 1.0f});
+  requests.push_back({50, 116, ProfileAxis{0, 1}, 1.0f});
+  std::vector<ProfileCrossing> batched;
+  MeasureProfileCrossings(img, requests, 1.3, batched);
+  ASSERT_EQ(batched.size(), requests.size());
+  int valid = 0;
+  for (size_t i = 0; i < requests.size(); ++i) {
+    const ProfileRequest& q = requests[i];
+    const ProfileCrossing one = MeasureProfileCrossing(img, q.u, q.v, q.axis, 1.3, q.profile_sigma);
+    ASSERT_EQ(batched[i].valid, one.valid) << i;
+    if (!one.valid) continue;
+    ++valid;
+    EXPECT_NEAR(batched[i].position, one.position, 2e-4) << i;
+    EXPECT_NEAR(batched[i].step, one.step, 1e-3) << i;
+  }
+  EXPECT_GT(valid, 300);
+  EXPECT_FALSE(batched[400].valid);
+  EXPECT_FALSE(batched[401].valid);
 }
 
 TEST(Boundary, BadImagesAreRejectedWithAMessage) {

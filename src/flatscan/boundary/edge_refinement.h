@@ -41,8 +41,16 @@ struct ProfileAxis {
   int du = 1, dv = 0;
   double Length() const { return (du != 0 && dv != 0) ? 1.4142135623730951 : 1.0; }
 };
-// The grid direction closest to `normal`, oriented so that normal . axis > 0.
-ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal);
+// The grid direction closest to `normal` (any length), oriented so that normal . axis > 0.
+inline ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal) {
+  // Axis-aligned when the smaller component is below tan(22.5 deg) of the larger.
+  constexpr double kTan22_5 = 0.41421356237309503;
+  const double ax = normal.x() >= 0 ? normal.x() : -normal.x(), ay = normal.y() >= 0 ? normal.y() : -normal.y();
+  const int sx = normal.x() >= 0 ? 1 : -1, sy = normal.y() >= 0 ? 1 : -1;
+  if (ay <= kTan22_5 * ax) return {sx, 0};
+  if (ax <= kTan22_5 * ay) return {0, sy};
+  return {sx, sy};
+}
 
 // Profile through pixel (u, v) along `axis`. `window_sigma`: the Gaussian window's
 // sigma in px. `position` is in steps of the axis from (u, v). With
@@ -53,6 +61,18 @@ ProfileAxis ClosestProfileAxis(const Eigen::Vector2d& normal);
 ProfileCrossing MeasureProfileCrossing(const cv::Mat1b& image, int u, int v, const ProfileAxis& axis,
                                        double window_sigma, double profile_sigma = 0.0,
                                        bool with_second_moment = false);
+
+// MeasureProfileCrossing with the likelihood fit (profile_sigma > 0) for many pixels:
+// 4 at a time in SIMD lanes (8 with AVX2, chosen at run time), the same results up to
+// float rounding (the normal density and distribution are computed rather than
+// interpolated from tables; tested to 2e-4 px).
+struct ProfileRequest {
+  int u = 0, v = 0;
+  ProfileAxis axis;
+  float profile_sigma = 1.0f;  // px along the axis, > 0
+};
+void MeasureProfileCrossings(const cv::Mat1b& image, const std::vector<ProfileRequest>& requests, double window_sigma,
+                             std::vector<ProfileCrossing>& out);
 
 struct ChainPoint {
   Eigen::Vector2d p;       // px
