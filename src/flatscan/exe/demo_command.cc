@@ -44,6 +44,7 @@ class DemoCommand : public Command {
     SimulateOptions options;
     options.scene = ScenePreset(preset_);
     options.scene.dataset.parts = parts_;
+    options.scene.part.flatness_mm = {0.02, 0.18};  // about half pass a 0.1 mm tolerance
     options.scene.board.poses = 14;
     options.seed = seed_;
     options.output_dir = output_;

@@ -230,6 +230,7 @@ PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng) {
   g.warp.c21 = rng.Uniform(-r, r);
   g.warp.c12 = rng.Uniform(-r, r);
   g.warp.c03 = rng.Uniform(-r, r);
+  if (spec.flatness_mm.hi > 0) return WithFlatness(g, rng.Uniform(spec.flatness_mm.lo, spec.flatness_mm.hi));
   return g;
 }
 

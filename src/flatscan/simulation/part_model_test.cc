@@ -107,5 +107,16 @@ TEST(PartModel, WithFlatnessHitsTheTargetAndKeepsTheShape) {
   EXPECT_NEAR(RestAndPlacePart(WithFlatness(flat, 0.05), 0.0, Eigen::Vector2d::Zero()).flatness_mm, 0.05, 1e-7);
 }
 
+TEST(PartModel, FlatnessRangeOfTheSceneScalesTheDrawnWarp) {
+  PartSpec spec;
+  spec.flatness_mm = {0.05, 0.06};
+  Random rng(11);
+  for (int i = 0; i < 5; ++i) {
+    const double f = RestAndPlacePart(SamplePartGeometry(spec, rng), 0.0, Eigen::Vector2d::Zero()).flatness_mm;
+    EXPECT_GE(f, 0.05 - 1e-7);
+    EXPECT_LE(f, 0.06 + 1e-7);
+  }
+}
+
 }  // namespace
 }  // namespace flatscan

@@ -249,6 +249,7 @@ void BindScene(SceneConfig& s, Binder& b) {
     b.RangeField("bending_mm", p.bending_mm, -5.0, 5.0);
     b.RangeField("twist_mm", p.twist_mm, -5.0, 5.0);
     b.Number("random_warp_mm", p.random_warp_mm, 0.0, 5.0);
+    b.RangeField("flatness_mm", p.flatness_mm, 0.0, 5.0);
     b.RangeField("rotation_deg", p.rotation_deg, -360.0, 360.0);
     b.Number("jitter_mm", p.jitter_mm, 0.0, 10.0);
     b.Number("jitter_deg", p.jitter_deg, 0.0, 10.0);

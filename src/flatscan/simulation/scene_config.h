@@ -88,6 +88,9 @@ struct PartSpec {
   Range bending_mm = {-0.15, 0.15};   // sag at the ends of each axis
   Range twist_mm = {-0.15, 0.15};     // corner height of the x*y term
   double random_warp_mm = 0.02;       // amplitude of each random 2nd/3rd-order term
+  // If hi > 0: the warp drawn above is scaled so the part's true flatness_mm is uniform
+  // in [lo, hi] (a lot with a known spread around the tolerance).
+  Range flatness_mm = {0.0, 0.0};
   Range rotation_deg = {0.0, 360.0};
   double jitter_mm = 0.1;             // placement jitter between repeated shots
   double jitter_deg = 0.2;
