@@ -22,6 +22,11 @@ struct InspectionParams {
   double thickness_mm = 0.2;    // height of the part's side face (sheet, plus walls if any)
   double tolerance_mm = 0.1;
   bool thickness_correction = true;
+  // Side faces along the sheet's normal estimated from a first pass (the normal of the
+  // fitted warp surface at the footprint's centre: the part's rest tilt), not the
+  // support normal; tilts beyond max_side_tilt_rad are capped.
+  bool estimate_side_tilt = true;
+  double max_side_tilt_rad = 0.06;
   MatchingParams matching;
   double max_height_mm = 5.0;   // disparity search: parts from -0.5 mm to this above the plane
   double outlier_radius_mm = 0.25;
@@ -50,6 +55,7 @@ struct InspectionResult {
   int crossings_left = 0, crossings_right = 0, matched = 0, valid = 0;
   double coverage = 0.0;         // fraction of the outer boundary's length with valid points
   int completed = 0;             // outline points completed from the warp model
+  double side_tilt_rad = 0.0;    // estimated tilt of the side faces from the support normal
   double blur_left_px = 0, blur_right_px = 0;
   std::vector<InspectedPoint> points;  // valid points
   std::vector<std::pair<std::string, double>> timing_ms;  // per stage, in order
