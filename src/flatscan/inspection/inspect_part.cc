@@ -1,6 +1,8 @@
 #include "flatscan/inspection/inspect_part.h"
 
 #include <algorithm>
+#include <optional>
+#include <span>
 #include <chrono>
 #include <map>
 #include <cmath>
@@ -109,6 +111,48 @@ int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::
   return best;
 }
 
+// Footprint centre: the area centroid of the left outline's rays cut with the plane,
+// put back on the plane (camera-1 frame); none for a degenerate outline.
+std::optional<Eigen::Vector3d> FootprintCentre(const Camera& left, const SupportPlane& plane, const BoundaryResult& lb,
+                                               const ContourInfo& outer) {
+  const Eigen::Vector3d e1 = plane.normal.unitOrthogonal(), e2 = plane.normal.cross(e1);
+  double area = 0;
+  Eigen::Vector2d centroid(0, 0), prev(0, 0);
+  for (int i = outer.begin; i <= outer.end; ++i) {
+    const EdgePoint& e = lb.points[i < outer.end ? i : outer.begin];
+    const Eigen::Vector2d xy = left.PixelToNormalized(Eigen::Vector2d(e.x, e.y));
+    const Eigen::Vector3d d(xy.x(), xy.y(), 1.0);
+    const Eigen::Vector3d on_plane = d * (plane.normal.dot(plane.point) / plane.normal.dot(d));
+    const Eigen::Vector2d q(on_plane.dot(e1), on_plane.dot(e2));
+    if (i > outer.begin) {
+      const double cross = prev.x() * q.y() - q.x() * prev.y();
+      area += cross;
+      centroid += cross * (prev + q);
+    }
+    prev = q;
+  }
+  if (!(std::abs(area) > 0)) return std::nullopt;
+  centroid /= 3 * area;
+  Eigen::Vector3d centre = centroid.x() * e1 + centroid.y() * e2;
+  return centre + (plane.point - centre).dot(plane.normal) * plane.normal;
+}
+
+// exp(-u / 2) for u = (d / sigma)^2 in [0, 9] (the smoothing's reach) by linear
+// interpolation in a table: relative error below 1e-6, several times cheaper than exp
+// for the ~10^5 neighbour weights of a rim.
+double GaussianOfSquare(double u) {
+  constexpr int kSize = 2048;
+  constexpr double kMax = 9.0;
+  static const std::vector<double> table = [] {
+    std::vector<double> t(kSize + 2);
+    for (int i = 0; i < kSize + 2; ++i) t[i] = std::exp(-0.5 * kMax * i / kSize);
+    return t;
+  }();
+  const double x = std::clamp(u, 0.0, kMax) * (kSize / kMax);
+  const int i = static_cast<int>(x);
+  return table[i] + (x - i) * (table[i + 1] - table[i]);
+}
+
 // Heights along the ordered, closed rim, each replaced by a local quadratic in arc
 // length fitted with Gaussian weights (sigma in mm): it averages the noise but,
 // unlike a plain average, does not flatten a smooth peak, so the maximum stays
@@ -131,30 +175,52 @@ std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, c
     if (d < -0.5 * length) d += length;
     return d;
   };
+  // Each point's neighbours within the reach (itself, then forward, then backward)
+  // with their signed arc lengths and Gaussian-times-inverse-variance weights: the
+  // same for the three passes, only the robust weights change.
+  std::vector<int> begin(n + 1, 0), neighbour;
+  std::vector<double> offset, base_weight;
+  for (int i = 0; i < n; ++i) {
+    begin[i] = static_cast<int>(neighbour.size());
+    auto add = [&](int j) {
+      const double ds = delta(i, j);
+      if (std::abs(ds) > reach) return false;
+      neighbour.push_back(j);
+      offset.push_back(ds);
+      base_weight.push_back(weights[j] * GaussianOfSquare((ds / sigma_mm) * (ds / sigma_mm)));
+      return true;
+    };
+    add(i);
+    int k = 1;
+    for (; k < n && add((i + k) % n); ++k) {}
+    for (int back = 1; back < n - k + 1 && add(((i - back) % n + n) % n); ++back) {}
+  }
+  begin[n] = static_cast<int>(neighbour.size());
   std::vector<double> robust(n, 1.0);
   std::vector<double> out(heights);
   for (int pass = 0; pass < 3; ++pass) {
     for (int i = 0; i < n; ++i) {
-      Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+      // Weighted least squares of h = c0 + c1 ds + c2 ds^2: moments of ds up to 4.
+      double m0 = 0, m1 = 0, m2 = 0, m3 = 0, m4 = 0, b0 = 0, b1 = 0, b2 = 0;
       int used = 0;
-      auto add = [&](int j) {
-        const double ds = delta(i, j);
-        if (std::abs(ds) > reach) return false;
-        const double w = weights[j] * robust[j] * std::exp(-0.5 * (ds / sigma_mm) * (ds / sigma_mm));
-        const Eigen::Vector3d row(1.0, ds, ds * ds);
-        ata += w * row * row.transpose();
-        atb += w * row * heights[j];
+      for (int e = begin[i]; e < begin[i + 1]; ++e) {
+        const double w = base_weight[e] * robust[neighbour[e]];
+        const double ds = offset[e], ds2 = ds * ds, h = heights[neighbour[e]];
+        m0 += w;
+        m1 += w * ds;
+        m2 += w * ds2;
+        m3 += w * ds2 * ds;
+        m4 += w * ds2 * ds2;
+        b0 += w * h;
+        b1 += w * ds * h;
+        b2 += w * ds2 * h;
         used += w > 0;
-        return true;
-      };
-      add(i);
-      int k = 1;
-      for (; k < n && add((i + k) % n); ++k) {}
-      for (int back = 1; back < n - k + 1 && add(((i - back) % n + n) % n); ++back) {}
+      }
       out[i] = heights[i];
       if (used < 5) continue;
-      const Eigen::Vector3d coef = ata.ldlt().solve(atb);
+      Eigen::Matrix3d ata;
+      ata << m0, m1, m2, m1, m2, m3, m2, m3, m4;
+      const Eigen::Vector3d coef = ata.ldlt().solve(Eigen::Vector3d(b0, b1, b2));
       if (coef.allFinite()) out[i] = coef[0];
     }
     if (pass == 2) break;
@@ -369,23 +435,26 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   }
 
   // The right silhouette near a crossing, rectified, in chain order (for the
-  // thickness-aware triangulation, which needs the curve off the crossing's row).
+  // thickness-aware triangulation, which needs the curve off the crossing's row): a
+  // window of each contour's rectified chain, which for a closed contour is padded
+  // with its own ends so that every window is contiguous.
+  constexpr int kReach = 24;  // chain points either side (about 1 px apart)
   std::vector<std::vector<Eigen::Vector2d>> right_chains(rb.contours.size());
-  auto right_silhouette = [&](const RowCrossing& b) {
+  auto right_silhouette = [&](const RowCrossing& b) -> std::span<const Eigen::Vector2d> {
     std::vector<Eigen::Vector2d>& chain = right_chains[b.contour];
     const ContourInfo& info = rb.contours[b.contour];
     const int n = info.end - info.begin;
+    const int pad = info.closed ? kReach : 0;
     if (chain.empty()) {
-      chain.reserve(n);
-      for (int i = info.begin; i < info.end; ++i) chain.push_back(right_rect.ToRectified(Eigen::Vector2d(rb.points[i].x, rb.points[i].y)));
+      chain.reserve(n + 2 * pad + 1);
+      for (int k = -pad; k < n + pad + 1; ++k) {
+        const int i = info.begin + ((k % n) + n) % n;
+        if (info.closed || k < n) chain.push_back(right_rect.ToRectified(Eigen::Vector2d(rb.points[i].x, rb.points[i].y)));
+      }
     }
-    constexpr int kReach = 24;  // chain points either side (about 1 px apart)
-    std::vector<Eigen::Vector2d> out;
-    for (int k = b.index - kReach; k <= b.index + 1 + kReach; ++k) {
-      if (info.closed) out.push_back(chain[((k % n) + n) % n]);
-      else if (k >= 0 && k < n) out.push_back(chain[k]);
-    }
-    return out;
+    const int first = std::max(0, b.index - kReach + pad);
+    const int last = std::min(static_cast<int>(chain.size()) - 1, b.index + 1 + kReach + pad);
+    return std::span<const Eigen::Vector2d>(chain.data() + first, last - first + 1);
   };
 
   // Triangulate, thickness-aware, with the side faces along `side` (rectified frame 1).
@@ -397,16 +466,23 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     std::vector<bool> keep;          // radius outlier filter
   };
   const Eigen::Matrix3d cam1_from_rect1 = stereo.rect1_from_cam1.transpose();
+  // Each match's right silhouette, made once for all the passes below.
+  std::vector<std::span<const Eigen::Vector2d>> silhouettes;
+  if (params.thickness_correction) {
+    silhouettes.reserve(matches.size());
+    for (const StereoMatch& m : matches) silhouettes.push_back(right_silhouette(rc[m.right]));
+  }
   auto triangulate = [&](const Eigen::Vector3d& side) {
     Triangulated t;
     std::vector<Eigen::Vector3d> cam1;
-    for (const StereoMatch& m : matches) {
+    for (size_t mi = 0; mi < matches.size(); ++mi) {
+      const StereoMatch& m = matches[mi];
       const RowCrossing& a = lc[m.left];
       const RowCrossing& b = rc[m.right];
       InspectedPoint p;
       BottomPoint bp;
       if (params.thickness_correction) {
-        bp = TriangulateBottomPoint(stereo, a.x, a.row, Eigen::Vector2d(a.nx, a.ny), right_silhouette(b), b.x, side,
+        bp = TriangulateBottomPoint(stereo, a.x, a.row, Eigen::Vector2d(a.nx, a.ny), silhouettes[mi], b.x, side,
                                     params.thickness_mm);
         if (!bp.valid) continue;
         p.left_edge = bp.left_edge;
@@ -542,6 +618,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   // Two passes: the first estimate comes from heights biased by the very tilt it
   // estimates (measured: 10-20% too large); the second is within a few percent.
   const bool estimate_tilt = params.thickness_correction && params.estimate_side_tilt;
+  const std::optional<Eigen::Vector3d> centre = FootprintCentre(rig.left, plane, lb, lb.contours[left_part]);
   for (int pass = 0; pass < 2 && estimate_tilt && rim_fit.points.size() >= 20; ++pass) {
     std::vector<Eigen::Vector3d> inner;
     std::vector<double> inner_heights, inner_weights;
@@ -553,30 +630,8 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     constexpr double linear_ridge = 1e-4;
     const RimSurfaceModel model(plane, rim_fit.points, rim_fit.smoothed, rim_fit.weights, inner, inner_heights, inner_weights,
                                 linear_ridge);
-    // Footprint centre: area centroid of the left outline lifted onto the plane.
-    const ContourInfo& outer = lb.contours[left_part];
-    const Eigen::Vector3d e1 = plane.normal.unitOrthogonal(), e2 = plane.normal.cross(e1);
-    double area = 0;
-    Eigen::Vector2d centroid(0, 0);
-    Eigen::Vector2d prev;
-    for (int i = outer.begin; i <= outer.end; ++i) {
-      const EdgePoint& e = lb.points[i < outer.end ? i : outer.begin];
-      const Eigen::Vector2d xy = rig.left.PixelToNormalized(Eigen::Vector2d(e.x, e.y));
-      const Eigen::Vector3d d(xy.x(), xy.y(), 1.0);
-      const Eigen::Vector3d on_plane = d * (plane.normal.dot(plane.point) / plane.normal.dot(d));
-      const Eigen::Vector2d q(on_plane.dot(e1), on_plane.dot(e2));
-      if (i > outer.begin) {
-        const double cross = prev.x() * q.y() - q.x() * prev.y();
-        area += cross;
-        centroid += cross * (prev + q);
-      }
-      prev = q;
-    }
-    if (std::abs(area) > 0) {
-      centroid /= 3 * area;
-      Eigen::Vector3d centre = centroid.x() * e1 + centroid.y() * e2;
-      centre += (plane.point - centre).dot(plane.normal) * plane.normal;
-      Eigen::Vector3d normal = model.SheetNormal(centre);
+    if (centre) {
+      Eigen::Vector3d normal = model.SheetNormal(*centre);
       // A tilt beyond what a resting part can have is a failed fit: capped.
       const double tilt = std::acos(std::clamp(normal.dot(plane.normal), -1.0, 1.0));
       if (tilt > params.max_side_tilt_rad)

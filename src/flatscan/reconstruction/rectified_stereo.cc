@@ -77,7 +77,7 @@ EdgeSeen Seen(const Eigen::Vector3d& c, const Eigen::Vector3d& p, const Eigen::V
 // X + delta projects onto the right silhouette polyline, starting near z0; NaN if
 // the polyline does not cross the image of that line.
 double SolveOnRightSilhouette(const RectifiedStereo& s, const Eigen::Vector3d& dl, const Eigen::Vector3d& delta,
-                              const std::vector<Eigen::Vector2d>& silhouette, double z0) {
+                              std::span<const Eigen::Vector2d> silhouette, double z0) {
   const Eigen::Vector2d p0 = ProjectRight(s, z0 * dl + delta);
   const Eigen::Vector2d e = ProjectRight(s, 1.02 * z0 * dl + delta) - p0;  // the image of a 3D line is a line
   double best_a = std::numeric_limits<double>::infinity();
@@ -108,7 +108,7 @@ double SolveOnRightSilhouette(const RectifiedStereo& s, const Eigen::Vector3d& d
 
 BottomPoint TriangulateBottomPoint(const RectifiedStereo& s, double u_left, double row,
                                    const Eigen::Vector2d& normal_left,
-                                   const std::vector<Eigen::Vector2d>& right_silhouette, double u_right,
+                                   std::span<const Eigen::Vector2d> right_silhouette, double u_right,
                                    const Eigen::Vector3d& side, double thickness) {
   BottomPoint out;
   const Eigen::Vector3d naive = TriangulateRow(s, u_left, u_right, row);

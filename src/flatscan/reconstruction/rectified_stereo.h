@@ -18,6 +18,7 @@
 // belongs to a neighbouring rim point). The second condition is solved exactly
 // against the right silhouette as a polyline (no straight-tangent or level-rim
 // approximation), so curved corners and sloped rims are handled.
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -68,7 +69,7 @@ struct BottomPoint {
 // silhouette polyline does not reach the point.
 BottomPoint TriangulateBottomPoint(const RectifiedStereo& stereo, double u_left, double row,
                                    const Eigen::Vector2d& normal_left,
-                                   const std::vector<Eigen::Vector2d>& right_silhouette, double u_right,
+                                   std::span<const Eigen::Vector2d> right_silhouette, double u_right,
                                    const Eigen::Vector3d& side_rect1, double thickness);
 
 }  // namespace flatscan
