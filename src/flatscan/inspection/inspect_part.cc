@@ -206,24 +206,39 @@ std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, c
   // the reweighting rejects their good neighbours too. Points further than
   // max(10 spreads, 20 um) from their neighbourhood's median start with weight 0 and
   // end with that median if no fit can be made.
-  // The neighbourhood is the 15 nearest points along the rim however far they are, so
-  // that a short run isolated between two unmatched stretches is judged by the rim
-  // beyond the gaps (measured: five crossings matched to a wrong edge, +4.7 mm).
-  constexpr int kMedianHalf = 7;
-  std::vector<double> median(n), window, deviation(n);
+  // Two neighbourhoods, the 15 and the 51 nearest points along the rim however far
+  // they are, so that a run isolated between two unmatched stretches is judged by the
+  // rim beyond the gaps. A point is gross when it is far from the near median (relative
+  // to the rim's spread: five crossings matched to a wrong edge, +4.7 mm) or more than
+  // 0.2 mm from the far one (a smooth run of 24 ramping to +5.2 mm; a real rim does not
+  // leave its 51 neighbours' median by that much), or 30 um below the support plane.
+  constexpr int kNearHalf = 7, kFarHalf = 25;
+  constexpr double kFarMm = 0.2, kBelowPlaneMm = 0.03;
+  auto median_of = [&](int i, int half) {
+    std::vector<double> window;
+    for (int k = -half; k <= half; ++k) window.push_back(heights[((i + k) % n + n) % n]);
+    std::nth_element(window.begin(), window.begin() + half, window.end());
+    return window[half];
+  };
+  std::vector<double> median(n), deviation(n);
+  std::vector<char> far(n, 0);
   for (int i = 0; i < n; ++i) {
-    window.clear();
-    for (int k = -kMedianHalf; k <= kMedianHalf; ++k) window.push_back(heights[((i + k) % n + n) % n]);
-    std::nth_element(window.begin(), window.begin() + window.size() / 2, window.end());
-    median[i] = window[window.size() / 2];
+    median[i] = median_of(i, kNearHalf);
     deviation[i] = std::abs(heights[i] - median[i]);
+    const double far_median = median_of(i, std::min(kFarHalf, (n - 1) / 2));
+    if (std::abs(heights[i] - far_median) > kFarMm || heights[i] < -kBelowPlaneMm) {
+      far[i] = 1;
+      median[i] = far_median;
+    }
   }
   std::vector<double> sorted_deviation = deviation;
   std::nth_element(sorted_deviation.begin(), sorted_deviation.begin() + n / 2, sorted_deviation.end());
   const double gross = std::max(10 * 1.4826 * sorted_deviation[n / 2], 0.02);
   std::vector<double> robust(n, 1.0);
-  for (int i = 0; i < n; ++i)
+  for (int i = 0; i < n; ++i) {
+    if (far[i]) deviation[i] = std::max(deviation[i], 2 * gross);
     if (deviation[i] > gross) robust[i] = 0.0;
+  }
   std::vector<double> out(heights);
   for (int pass = 0; pass < 3; ++pass) {
     for (int i = 0; i < n; ++i) {
