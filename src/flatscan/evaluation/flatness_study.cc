@@ -174,12 +174,9 @@ RepeatStudy RunRepeatStudy(const CalibratedStation& station, const RepeatStudyOp
   study.true_flatness_mm = jobs.front().shot.truth.flatness_mm;
   study.shots = MeasureShots(station, jobs, options, progress);
 
-  std::vector<double> values;
-  for (const PartMeasurement& m : study.shots)
-    if (m.measured) values.push_back(m.values.flatness_mm);
-  study.measured = static_cast<int>(values.size());
   study.errors = SummarizeErrors(MeasuredErrors(study.shots));
-  if (values.empty()) return study;
+  study.measured = study.errors.count;
+  if (study.measured == 0) return study;
   study.mean_mm = study.true_flatness_mm + study.errors.mean_mm;
   study.variance_mm2 = study.errors.sd_mm * study.errors.sd_mm;
   study.relative_error = std::abs(study.mean_mm - study.true_flatness_mm) / study.true_flatness_mm;

@@ -201,21 +201,21 @@ std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, c
     for (int back = 1; back < n - k + 1 && add(((i - back) % n + n) % n); ++back) {}
   }
   begin[n] = static_cast<int>(neighbour.size());
-  // Start from the local median: a run of mismatched points (a few consecutive crossings
-  // matched to another edge, millimetres off) would pull a plain first fit so far that
-  // the reweighting rejects their good neighbours too. Points further than
-  // max(10 spreads, 20 um) from their neighbourhood's median start with weight 0 and
-  // end with that median if no fit can be made.
-  // Two neighbourhoods, the 15 and the 51 nearest points along the rim however far
-  // they are, so that a run isolated between two unmatched stretches is judged by the
-  // rim beyond the gaps. A point is gross when it is far from the near median (relative
-  // to the rim's spread: five crossings matched to a wrong edge, +4.7 mm) or more than
-  // 0.2 mm from the far one (a smooth run of 24 ramping to +5.2 mm; a real rim does not
-  // leave its 51 neighbours' median by that much), or 30 um below the support plane.
+  // Start from medians: a run of mismatched points (a few consecutive crossings matched
+  // to another edge, millimetres off) would pull a plain first fit so far that the
+  // reweighting rejects their good neighbours too. Two neighbourhoods, the 15 and the
+  // 51 nearest points along the rim however far they are, so that a run isolated
+  // between two unmatched stretches is judged by the rim beyond the gaps. A point is
+  // gross when it is further than max(10 spreads, 20 um) from the near median (five
+  // crossings matched to a wrong edge, +4.7 mm), more than 0.2 mm from the far one (a
+  // smooth run of 24 ramping to +5.2 mm; a real rim does not leave its 51 neighbours'
+  // median by that much), or 30 um below the support plane. Gross points start with
+  // weight 0 and end with their median if no fit can be made.
   constexpr int kNearHalf = 7, kFarHalf = 25;
   constexpr double kFarMm = 0.2, kBelowPlaneMm = 0.03;
+  std::vector<double> window;
   auto median_of = [&](int i, int half) {
-    std::vector<double> window;
+    window.clear();
     for (int k = -half; k <= half; ++k) window.push_back(heights[((i + k) % n + n) % n]);
     std::nth_element(window.begin(), window.begin() + half, window.end());
     return window[half];
