@@ -58,6 +58,9 @@ class EvaluateCommand : public Command {
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
         ->default_val(0)->check(CLI::NonNegativeNumber);
     sub_->add_flag("--no-thickness-correction", no_correction_, "inspect as if the sheet had no thickness");
+    sub_->add_flag("--true-calibration", true_calibration_,
+                   "diagnostic: inspect with the simulator's true rig and plane instead of the calibrated ones, to "
+                   "separate the calibration's share of the error from the inspection's");
   }
 
   int Run() override {
@@ -75,12 +78,18 @@ class EvaluateCommand : public Command {
     StagedDirectory dir(output_);
     const std::filesystem::path root = dir.path();
     spdlog::info("simulating and calibrating the station '{}'", scene.name);
-    const CalibratedStation station = SimulateAndCalibrateStation(
+    CalibratedStation station = SimulateAndCalibrateStation(
         scene, seed_, root / "station", [](const std::string& s) { spdlog::info("rendering {}", s); });
-    std::string md = fmt::format("## flatscan evaluate: scene '{}', seed {}{}\n\n", scene.name, seed_,
-                                 no_correction_ ? ", thickness correction OFF" : "");
+    if (true_calibration_) {
+      station.rig_report.rig = station.truth.rig;
+      station.plane_report.plane = station.truth.plane;
+    }
+    std::string md = fmt::format("## flatscan evaluate: scene '{}', seed {}{}{}\n\n", scene.name, seed_,
+                                 no_correction_ ? ", thickness correction OFF" : "",
+                                 true_calibration_ ? ", TRUE rig and plane (diagnostic, not a calibrated station)" : "");
     md += CalibrationMarkdown(station) + "\n";
     nlohmann::json json = {{"scene", SceneToJson(scene)}, {"seed", seed_}, {"thickness_correction", !no_correction_},
+                           {"true_calibration", true_calibration_},
                            {"calibration", CalibrationJson(station)}};
     std::cout << md << std::flush;
     if (repeat_) {
@@ -123,6 +132,7 @@ class EvaluateCommand : public Command {
   uint64_t seed_ = 1;
   bool repeat_ = false;
   bool no_correction_ = false;
+  bool true_calibration_ = false;
   double tolerance_ = 0.1;
   int calib_poses_ = 14;
   int save_worst_ = 0;

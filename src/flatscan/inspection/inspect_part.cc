@@ -1,6 +1,7 @@
 #include "flatscan/inspection/inspect_part.h"
 
 #include <algorithm>
+#include <array>
 #include <optional>
 #include <span>
 #include <chrono>
@@ -10,6 +11,7 @@
 #include <Eigen/Dense>
 #include <opencv2/core/eigen.hpp>
 
+#include "flatscan/flatness/rim_heights.h"
 #include "flatscan/reconstruction/outlier_filter.h"
 #include "flatscan/reconstruction/rectified_stereo.h"
 #include "flatscan/util/error.h"
@@ -137,247 +139,33 @@ std::optional<Eigen::Vector3d> FootprintCentre(const Camera& left, const Support
   return centre + (plane.point - centre).dot(plane.normal) * plane.normal;
 }
 
-// exp(-u / 2) for u = (d / sigma)^2 in [0, 9] (the smoothing's reach) by linear
-// interpolation in a table: relative error below 1e-6, several times cheaper than exp
-// for the ~10^5 neighbour weights of a rim.
-double GaussianOfSquare(double u) {
-  constexpr int kSize = 2048;
-  constexpr double kMax = 9.0;
-  static const std::vector<double> table = [] {
-    std::vector<double> t(kSize + 2);
-    for (int i = 0; i < kSize + 2; ++i) t[i] = std::exp(-0.5 * kMax * i / kSize);
-    return t;
-  }();
-  const double x = std::clamp(u, 0.0, kMax) * (kSize / kMax);
-  const int i = static_cast<int>(x);
-  return table[i] + (x - i) * (table[i + 1] - table[i]);
+// The bottom-rim point seen at raw left pixel `q` (image normal `n`) on the warp
+// surface: the left ray meets the silhouette edge (the top edge when camera 1 is on
+// the inner side of the side face), which lies `thickness` above the bottom rim.
+// Fixed point h = surface height where the ray meets the level h: it contracts by the
+// surface slope times the ray's obliquity; a point where it does not settle to 0.1 um
+// is not completed (NaN; a runaway once gave +4.5 mm).
+Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, const Eigen::Vector2d& q,
+                                   const Eigen::Vector2d& n, double thickness) {
+  const Eigen::Vector2d xy = left.PixelToNormalized(q);
+  const Eigen::Vector2d xy_out = left.PixelToNormalized(q + 0.5 * n);
+  const Eigen::Vector3d d(xy.x(), xy.y(), 1.0), d_out(xy_out.x(), xy_out.y(), 1.0);
+  const SupportPlane& plane = warp.plane();
+  const Eigen::Vector3d& up = plane.normal;
+  double h = 0.0;
+  for (int iter = 0; iter < 8; ++iter) {
+    const double level = up.dot(plane.point) + h;
+    const Eigen::Vector3d seen = d * (level / up.dot(d));
+    Eigen::Vector3d outward = d_out * (level / up.dot(d_out)) - seen;
+    outward -= outward.dot(up) * up;
+    const int top = (-seen).dot(outward) > 0 ? 0 : 1;  // camera 1 is at the origin
+    const Eigen::Vector3d bottom = seen - top * thickness * up;
+    const double next = warp.Height(bottom) + top * thickness;
+    if (std::abs(next - h) < 1e-4 && iter > 0) return bottom;
+    h = next;
+  }
+  return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 }
-
-// Heights along the ordered, closed rim, each replaced by a local quadratic in arc
-// length fitted with Gaussian weights (sigma in mm): it averages the noise but,
-// unlike a plain average, does not flatten a smooth peak, so the maximum stays
-// unbiased. `weights` are the points' inverse variances (relative). The fit is
-// robust: two reweighting passes with Tukey's biweight on the residuals scaled by
-// their robust spread, so a few bad points (a corner's blurred silhouette, a
-// mismatched crossing) cannot carry the maximum.
-std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& heights,
-                                   const std::vector<double>& weights, double sigma_mm, const SupportPlane& plane) {
-  const int n = static_cast<int>(points.size());
-  if (sigma_mm <= 0 || n < 5) return heights;
-  // Arc length along the rim as camera 1 sees it: each point's line of sight cut with
-  // the plane (camera 1 at the origin), so a mismatched point, millimetres off in depth,
-  // stays where its neighbours are along the rim instead of a jump away.
-  const double level = plane.normal.dot(plane.point);
-  auto on_plane = [&](const Eigen::Vector3d& p) { return Eigen::Vector3d(p * (level / plane.normal.dot(p))); };
-  std::vector<double> arc(n + 1, 0.0);
-  for (int i = 1; i <= n; ++i) arc[i] = arc[i - 1] + (on_plane(points[i % n]) - on_plane(points[i - 1])).norm();
-  const double length = arc[n];
-  const double reach = 3 * sigma_mm;
-  // Signed arc length from i to j the short way round.
-  auto delta = [&](int i, int j) {
-    double d = arc[j] - arc[i];
-    if (d > 0.5 * length) d -= length;
-    if (d < -0.5 * length) d += length;
-    return d;
-  };
-  // Each point's neighbours within the reach (itself, then forward, then backward)
-  // with their signed arc lengths and Gaussian-times-inverse-variance weights: the
-  // same for the three passes, only the robust weights change.
-  std::vector<int> begin(n + 1, 0), neighbour;
-  std::vector<double> offset, base_weight;
-  for (int i = 0; i < n; ++i) {
-    begin[i] = static_cast<int>(neighbour.size());
-    auto add = [&](int j) {
-      const double ds = delta(i, j);
-      if (std::abs(ds) > reach) return false;
-      neighbour.push_back(j);
-      offset.push_back(ds);
-      base_weight.push_back(weights[j] * GaussianOfSquare((ds / sigma_mm) * (ds / sigma_mm)));
-      return true;
-    };
-    add(i);
-    int k = 1;
-    for (; k < n && add((i + k) % n); ++k) {}
-    for (int back = 1; back < n - k + 1 && add(((i - back) % n + n) % n); ++back) {}
-  }
-  begin[n] = static_cast<int>(neighbour.size());
-  // Start from medians: a run of mismatched points (a few consecutive crossings matched
-  // to another edge, millimetres off) would pull a plain first fit so far that the
-  // reweighting rejects their good neighbours too. Two neighbourhoods, the 15 and the
-  // 51 nearest points along the rim however far they are, so that a run isolated
-  // between two unmatched stretches is judged by the rim beyond the gaps. A point is
-  // gross when it is further than max(10 spreads, 20 um) from the near median (five
-  // crossings matched to a wrong edge, +4.7 mm), more than 0.2 mm from the far one (a
-  // smooth run of 24 ramping to +5.2 mm; a real rim does not leave its 51 neighbours'
-  // median by that much), or 30 um below the support plane. Gross points start with
-  // weight 0 and end with their median if no fit can be made.
-  constexpr int kNearHalf = 7, kFarHalf = 25;
-  constexpr double kFarMm = 0.2, kBelowPlaneMm = 0.03;
-  std::vector<double> window;
-  auto median_of = [&](int i, int half) {
-    window.clear();
-    for (int k = -half; k <= half; ++k) window.push_back(heights[((i + k) % n + n) % n]);
-    std::nth_element(window.begin(), window.begin() + half, window.end());
-    return window[half];
-  };
-  std::vector<double> median(n), deviation(n);
-  std::vector<char> far(n, 0);
-  for (int i = 0; i < n; ++i) {
-    median[i] = median_of(i, kNearHalf);
-    deviation[i] = std::abs(heights[i] - median[i]);
-    const double far_median = median_of(i, std::min(kFarHalf, (n - 1) / 2));
-    if (std::abs(heights[i] - far_median) > kFarMm || heights[i] < -kBelowPlaneMm) {
-      far[i] = 1;
-      median[i] = far_median;
-    }
-  }
-  std::vector<double> sorted_deviation = deviation;
-  std::nth_element(sorted_deviation.begin(), sorted_deviation.begin() + n / 2, sorted_deviation.end());
-  const double gross = std::max(10 * 1.4826 * sorted_deviation[n / 2], 0.02);
-  std::vector<double> robust(n, 1.0);
-  for (int i = 0; i < n; ++i) {
-    if (far[i]) deviation[i] = std::max(deviation[i], 2 * gross);
-    if (deviation[i] > gross) robust[i] = 0.0;
-  }
-  std::vector<double> out(heights);
-  for (int pass = 0; pass < 3; ++pass) {
-    for (int i = 0; i < n; ++i) {
-      // Weighted least squares of h = c0 + c1 ds + c2 ds^2: moments of ds up to 4.
-      double m0 = 0, m1 = 0, m2 = 0, m3 = 0, m4 = 0, b0 = 0, b1 = 0, b2 = 0;
-      int used = 0;
-      for (int e = begin[i]; e < begin[i + 1]; ++e) {
-        const double w = base_weight[e] * robust[neighbour[e]];
-        const double ds = offset[e], ds2 = ds * ds, h = heights[neighbour[e]];
-        m0 += w;
-        m1 += w * ds;
-        m2 += w * ds2;
-        m3 += w * ds2 * ds;
-        m4 += w * ds2 * ds2;
-        b0 += w * h;
-        b1 += w * ds * h;
-        b2 += w * ds2 * h;
-        used += w > 0;
-      }
-      out[i] = robust[i] > 0 || deviation[i] <= gross ? heights[i] : median[i];
-      if (used < 5) continue;
-      Eigen::Matrix3d ata;
-      ata << m0, m1, m2, m1, m2, m3, m2, m3, m4;
-      const Eigen::Vector3d coef = ata.ldlt().solve(Eigen::Vector3d(b0, b1, b2));
-      if (coef.allFinite()) out[i] = coef[0];
-    }
-    if (pass == 2) break;
-    // Residuals in units of each point's own noise; robust spread by the MAD.
-    std::vector<double> z(n), abs_z(n);
-    for (int i = 0; i < n; ++i) {
-      z[i] = (heights[i] - out[i]) * std::sqrt(weights[i]);
-      abs_z[i] = std::abs(z[i]);
-    }
-    std::nth_element(abs_z.begin(), abs_z.begin() + n / 2, abs_z.end());
-    const double spread = 1.4826 * abs_z[n / 2];
-    if (!(spread > 0)) break;
-    for (int i = 0; i < n; ++i) {
-      const double u = z[i] / (4.685 * spread);
-      robust[i] = std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0.0;
-    }
-  }
-  return out;
-}
-
-// Height of the rim above the support plane as a cubic polynomial in plane
-// coordinates (a thin sheet's warp: bending, twist and low-order terms, plus the
-// rest tilt), fitted by weighted least squares to the measured rim and to the
-// measured edges of the part's holes (the same sheet, with their own offset: a
-// part with walls stands on the walls' rim). Where the rim is missing (stretches
-// along the epipolar rows) the hole edges are what pins the warp between the
-// measured stretches; a small ridge penalty on the curvature terms keeps a warp
-// direction the data do not determine flat instead of letting it run away.
-class RimSurfaceModel {
- public:
-  RimSurfaceModel(const SupportPlane& plane, const std::vector<Eigen::Vector3d>& points,
-                  const std::vector<double>& heights, const std::vector<double>& weights,
-                  const std::vector<Eigen::Vector3d>& inner, const std::vector<double>& inner_heights,
-                  const std::vector<double>& inner_weights, double linear_ridge = 0.0)
-      : plane_(plane) {
-    e1_ = plane.normal.unitOrthogonal();
-    e2_ = plane.normal.cross(e1_);
-    for (const Eigen::Vector3d& p : points) centre_ += p;
-    centre_ /= static_cast<double>(points.size());
-    const bool use_inner = inner.size() >= 10;
-    const int columns = use_inner ? kTerms + 1 : kTerms;
-    const size_t rows = points.size() + (use_inner ? inner.size() : 0);
-    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(rows + kTerms - 1, columns);
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(rows + kTerms - 1);
-    double total_weight = 0;
-    for (size_t i = 0; i < rows; ++i) {
-      const bool is_inner = i >= points.size();
-      const size_t k = is_inner ? i - points.size() : i;
-      const double w = std::sqrt(is_inner ? inner_weights[k] : weights[k]);
-      total_weight += w * w;
-      a.row(i).head(kTerms) = w * Basis(is_inner ? inner[k] : points[k]).transpose();
-      if (use_inner) a(i, kTerms) = is_inner ? w : 0.0;
-      b[i] = w * (is_inner ? inner_heights[k] : heights[k]);
-    }
-    // Ridge on the quadratic and cubic terms (coordinates in units of 10 mm): a
-    // weight of 1e-4 of the data's leaves any warp the rim or holes show untouched.
-    // `linear_ridge` (relative, same units) also penalises the tilt terms: among the
-    // warps the data cannot tell apart (a tilt and the odd cubic terms look alike on
-    // two opposite sides alone) it then takes the least tilt.
-    const double ridge = std::sqrt(1e-5 * total_weight);
-    for (int t = 3; t < kTerms; ++t) a(rows + t - 1, t) = ridge;
-    for (int t = 1; t < 3; ++t) a(rows + t - 1, t) = std::sqrt(linear_ridge * total_weight);
-    const Eigen::VectorXd c = a.colPivHouseholderQr().solve(b);
-    coefficients_ = c.head(kTerms);
-  }
-  double Height(const Eigen::Vector3d& p) const { return Basis(p).dot(coefficients_); }
-  // Unit normal of the fitted surface at `p` (toward the cameras).
-  Eigen::Vector3d SheetNormal(const Eigen::Vector3d& p) const {
-    const double x = (p - centre_).dot(e1_) / 10.0, y = (p - centre_).dot(e2_) / 10.0;
-    Eigen::Matrix<double, kTerms, 1> dx, dy;
-    dx << 0, 1, 0, 2 * x, y, 0, 3 * x * x, 2 * x * y, y * y, 0;
-    dy << 0, 0, 1, 0, x, 2 * y, 0, x * x, 2 * x * y, 3 * y * y;
-    const double gx = dx.dot(coefficients_) / 10.0, gy = dy.dot(coefficients_) / 10.0;  // mm per mm
-    return (plane_.normal - gx * e1_ - gy * e2_).normalized();
-  }
-  // The bottom-rim point seen at raw left pixel `q` (image normal `n`): the left ray
-  // meets the silhouette edge (the top edge when the camera is on the inner side of
-  // the side face), which lies `thickness` above the bottom rim.
-  Eigen::Vector3d LiftLeftSilhouette(const Camera& left, const Eigen::Vector2d& q, const Eigen::Vector2d& n,
-                                     double thickness) const {
-    const Eigen::Vector2d xy = left.PixelToNormalized(q);
-    const Eigen::Vector2d xy_out = left.PixelToNormalized(q + 0.5 * n);
-    const Eigen::Vector3d d(xy.x(), xy.y(), 1.0), d_out(xy_out.x(), xy_out.y(), 1.0);
-    const Eigen::Vector3d& up = plane_.normal;
-    // Fixed point h = model height where the ray meets the level h: it contracts by
-    // the surface slope times the ray's obliquity; a point where it does not settle
-    // to 0.1 um is not completed (a runaway once gave +4.5 mm).
-    double h = 0.0;
-    const Eigen::Vector3d none = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-    for (int iter = 0; iter < 8; ++iter) {
-      const double level = up.dot(plane_.point) + h;
-      const Eigen::Vector3d seen = d * (level / up.dot(d));
-      Eigen::Vector3d outward = d_out * (level / up.dot(d_out)) - seen;
-      outward -= outward.dot(up) * up;
-      const int top = (-seen).dot(outward) > 0 ? 0 : 1;  // camera 1 is at the origin
-      const Eigen::Vector3d bottom = seen - top * thickness * up;
-      const double next = Height(bottom) + top * thickness;
-      if (std::abs(next - h) < 1e-4 && iter > 0) return bottom;
-      h = next;
-    }
-    return none;
-  }
-
- private:
-  static constexpr int kTerms = 10;
-  Eigen::Matrix<double, kTerms, 1> Basis(const Eigen::Vector3d& p) const {
-    const double x = (p - centre_).dot(e1_) / 10.0, y = (p - centre_).dot(e2_) / 10.0;
-    Eigen::Matrix<double, kTerms, 1> v;
-    v << 1, x, y, x * x, x * y, y * y, x * x * x, x * x * y, x * y * y, y * y * y;
-    return v;
-  }
-  const SupportPlane& plane_;
-  Eigen::Vector3d e1_, e2_, centre_ = Eigen::Vector3d::Zero();
-  Eigen::Matrix<double, kTerms, 1> coefficients_;
-};
 
 // The part's outline enters each row at its leftmost crossing in both images; the
 // disparity there must be the support plane's plus at most a few mm of height. With
@@ -402,7 +190,6 @@ void CheckDisparitySign(const std::vector<RowCrossing>& lc, const std::vector<Ro
   if (!first_left.empty() && !first_right.empty()) {
     const int top = std::abs(first_left.begin()->first - first_right.begin()->first);
     const int bottom = std::abs(first_left.rbegin()->first - first_right.rbegin()->first);
-    if (getenv("DEBUG_SWAP")) fprintf(stderr, "rows %d %d\n", top, bottom);
     if (std::max(top, bottom) > 3)
       ThrowInputError("{} and {}: the part's outline spans different rows in the two rectified views ({} px apart): the "
                       "images do not fit the rig: check that left and right are not swapped and that the rig file "
@@ -411,7 +198,6 @@ void CheckDisparitySign(const std::vector<RowCrossing>& lc, const std::vector<Ro
   if (offsets.size() < 10) return;
   std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
   const double median = offsets[offsets.size() / 2];
-  if (getenv("DEBUG_SWAP")) fprintf(stderr, "median offset %.3f\n", median);
   if (median < -1.0)
     ThrowInputError("{} and {}: the disparities are negative: the left and right images look swapped", left_name, right_name);
 }
@@ -522,6 +308,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   auto triangulate = [&](const Eigen::Vector3d& side) {
     Triangulated t;
     std::vector<Eigen::Vector3d> cam1;
+    std::vector<double> radii;
     for (size_t mi = 0; mi < matches.size(); ++mi) {
       const StereoMatch& m = matches[mi];
       const RowCrossing& a = lc[m.left];
@@ -548,18 +335,22 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
       cam1.push_back(p.cam1);
       t.chain_index.push_back(a.index);
       t.weight.push_back(a.nx * a.nx * b.nx * b.nx / (a.nx * a.nx + b.nx * b.nx));
+      // Consecutive row crossings lie one row / |n_x| apart along the boundary: where it
+      // runs near the rows they are sparse, and the radius must reach 2.5 spacings to
+      // find the neighbours a point on a well-sampled stretch has.
+      const double spacing_mm = p.cam1.z() / stereo.f / std::max(std::abs(a.nx), 1e-3);
+      radii.push_back(std::max(params.outlier_radius_mm, 2.5 * spacing_mm));
     }
-    t.keep = RadiusOutlierFilter(cam1, params.outlier_radius_mm, params.outlier_min_neighbours);
+    t.keep = RadiusOutlierFilter(cam1, radii, params.outlier_min_neighbours);
     return t;
   };
   // The rim of one triangulation: valid outer points in chain order (by the left
   // crossing's chain index), with the points near a camera's view turning across the
-  // side face dropped, and their heights smoothed along the rim.
+  // side face dropped; and the measured edges of the part's holes (the same sheet).
   struct Rim {
     std::vector<bool> drop;
     std::vector<std::pair<int, int>> order;  // (chain index, index in tri)
-    std::vector<Eigen::Vector3d> points;
-    std::vector<double> heights, weights, smoothed;
+    HeightSamples outer, inner;
   };
   auto build_rim = [&](const Triangulated& tri) {
     Rim out;
@@ -570,35 +361,58 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     // Where a camera's view of the side face turns from outside to inside (its line of
     // sight grazes the face: a corner), its silhouette runs along the face's vertical
     // generator, which is neither edge: rim points within the generator's length (plus
-    // the edge operator's reach) of such a turn are dropped.
+    // the edge operator's reach) of such a turn are dropped. A side whose face the
+    // camera sees edge-on all along (|facing| below kGrazing beyond the reach on both
+    // sides of the turn) flips between the two edges with the noise of the normal; there
+    // the two edges project onto one line and either solution moves the point along the
+    // rim by at most the generator's length (a micrometre of height), so it is kept
+    // (measured: up to 160 of 900 points of a 12 mm-lens part were dropped before).
     out.drop.assign(tri.points.size(), false);
     if (params.thickness_correction && chain_order.size() > 2) {
+      constexpr double kGrazing = 0.01;
       const int m = static_cast<int>(chain_order.size());
-      auto pixel_mm = [&](int i) { return tri.points[i].cam1.z() / stereo.f; };
+      auto point = [&](int j) -> const InspectedPoint& { return tri.points[chain_order[((j % m) + m) % m].second]; };
+      auto seen = [&](int j) -> const BottomPoint& { return tri.seen[chain_order[((j % m) + m) % m].second]; };
+      // Each camera's facing averaged over 9 neighbours along the rim: the normal's
+      // noise (about +-0.004 here) would flip the sign of a face seen nearly edge-on.
+      std::array<std::vector<double>, 2> mean_facing;
+      for (int camera = 0; camera < 2; ++camera) {
+        mean_facing[camera].resize(m);
+        for (int j = 0; j < m; ++j) {
+          double sum = 0;
+          for (int k = j - 4; k <= j + 4; ++k) sum += camera == 0 ? seen(k).facing_left : seen(k).facing_right;
+          mean_facing[camera][j] = sum / 9;
+        }
+      }
+      std::vector<int> stretch;
       for (int j = 0; j < m; ++j) {
-        const int i0 = chain_order[j].second, i1 = chain_order[(j + 1) % m].second;
-        const BottomPoint& a = tri.seen[i0];
-        const BottomPoint& b = tri.seen[i1];
-        double reach = 0;
-        if ((a.facing_left > 0) != (b.facing_left > 0)) reach = std::max({reach, a.generator_left_mm, b.generator_left_mm});
-        if ((a.facing_right > 0) != (b.facing_right > 0)) reach = std::max({reach, a.generator_right_mm, b.generator_right_mm});
-        if (reach == 0) continue;
-        reach += 2.5 * pixel_mm(i0);
-        for (int dir : {-1, 1}) {
-          const int start = dir < 0 ? j : (j + 1) % m;
-          Eigen::Vector3d from = tri.points[chain_order[start].second].cam1;
-          double arc = 0;
-          for (int k = start, steps = 0; steps < m && arc <= reach; k = ((k + dir) % m + m) % m, ++steps) {
-            const Eigen::Vector3d& at = tri.points[chain_order[k].second].cam1;
-            arc += (at - from).norm();
-            from = at;
-            if (arc <= reach) out.drop[chain_order[k].second] = true;
+        for (int camera = 0; camera < 2; ++camera) {
+          auto facing = [&](int k) { return mean_facing[camera][((k % m) + m) % m]; };
+          auto generator = [&](int k) { return camera == 0 ? seen(k).generator_left_mm : seen(k).generator_right_mm; };
+          if ((facing(j) > 0) == (facing(j + 1) > 0)) continue;
+          const double reach = std::max(generator(j), generator(j + 1)) + 2.5 * point(j).cam1.z() / stereo.f;
+          stretch.clear();
+          double end_facing = 0;
+          for (int dir : {-1, 1}) {
+            const int start = dir < 0 ? j : j + 1;
+            double arc = 0;
+            int k = start;
+            for (int steps = 0; steps < m; ++steps, k += dir) {
+              arc += (point(k).cam1 - point(k == start ? start : k - dir).cam1).norm();
+              if (arc > reach) break;
+              stretch.push_back(k);
+            }
+            end_facing = std::max(end_facing, std::abs(facing(k)));
           }
+          if (end_facing < kGrazing) continue;
+          for (int k : stretch) out.drop[chain_order[((k % m) + m) % m].second] = true;
         }
       }
     }
     // A short run of points left between two dropped stretches (a corner where both
-    // cameras' views turn) has no neighbours to check it: dropped too.
+    // cameras' views turn) has no neighbours to check it: dropped too (measured: +16 um
+    // from one such point at a corner).
+    constexpr double kShortRunMm = 0.25;
     if (!chain_order.empty()) {
       const int m = static_cast<int>(chain_order.size());
       int first_dropped = -1;
@@ -615,7 +429,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
             run.push_back(i);
             continue;
           }
-          if (!run.empty() && length < params.height_smoothing_mm)
+          if (!run.empty() && length < kShortRunMm)
             for (int k : run) out.drop[k] = true;
           run.clear();
           length = 0;
@@ -625,26 +439,12 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     for (const auto& [index, i] : chain_order) {
       if (out.drop[i]) continue;
       out.order.emplace_back(index, i);
-      out.points.push_back(tri.points[i].cam1);
-      out.heights.push_back(tri.points[i].height_mm);
-      out.weights.push_back(tri.weight[i]);
+      out.outer.Add(tri.points[i].cam1, tri.points[i].height_mm, tri.weight[i]);
     }
-    if (out.points.size() < 10) {
-      out.smoothed = out.heights;
-      return out;
-    }
-    out.smoothed = SmoothAlongRim(out.points, out.heights, out.weights, params.height_smoothing_mm, plane);
-    return out;
-  };
-  // Measured edges of the part's holes (the same sheet), for the warp surface.
-  auto inner_points = [&](const Triangulated& tri, const Rim& rim, std::vector<Eigen::Vector3d>* inner,
-                          std::vector<double>* heights, std::vector<double>* weights) {
     for (size_t i = 0; i < tri.points.size(); ++i)
-      if (tri.keep[i] && !rim.drop[i] && !tri.points[i].outer) {
-        inner->push_back(tri.points[i].cam1);
-        heights->push_back(tri.points[i].height_mm);
-        weights->push_back(tri.weight[i]);
-      }
+      if (tri.keep[i] && !out.drop[i] && !tri.points[i].outer)
+        out.inner.Add(tri.points[i].cam1, tri.points[i].height_mm, tri.weight[i]);
+    return out;
   };
 
   // Side-face direction. A cut sheet's side faces are perpendicular to the sheet. The
@@ -660,63 +460,60 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   // part's centre, exact for a flat tilted sheet; a warped sheet's local normal at
   // the rim differs by the warp's slope there, which is not modelled).
   Triangulated tri = triangulate(up);
-  Rim rim_fit = build_rim(tri);
+  Rim rim = build_rim(tri);
   result.side_tilt_rad = 0;
   // Two passes: the first estimate comes from heights biased by the very tilt it
   // estimates (measured: 10-20% too large); the second is within a few percent.
   const bool estimate_tilt = params.thickness_correction && params.estimate_side_tilt;
   const std::optional<Eigen::Vector3d> centre = FootprintCentre(rig.left, plane, lb, lb.contours[left_part]);
-  for (int pass = 0; pass < 2 && estimate_tilt && rim_fit.points.size() >= 20; ++pass) {
-    std::vector<Eigen::Vector3d> inner;
-    std::vector<double> inner_heights, inner_weights;
-    inner_points(tri, rim_fit, &inner, &inner_heights, &inner_weights);
+  for (int pass = 0; pass < 2 && estimate_tilt && centre && rim.outer.size() >= 20; ++pass) {
     // A small ridge on the tilt terms: among tilts the data cannot tell from the odd
     // cubic terms (two opposite sides measured, the others along the rows) the lesser
     // (measured on 300 parts: 1e-3 halves well-determined tilts, 0 lets low-coverage
     // parts take spurious ones).
-    constexpr double linear_ridge = 1e-4;
-    const RimSurfaceModel model(plane, rim_fit.points, rim_fit.smoothed, rim_fit.weights, inner, inner_heights, inner_weights,
-                                linear_ridge);
-    if (centre) {
-      Eigen::Vector3d normal = model.SheetNormal(*centre);
-      // A tilt beyond what a resting part can have is a failed fit: capped.
-      const double tilt = std::acos(std::clamp(normal.dot(plane.normal), -1.0, 1.0));
-      if (tilt > params.max_side_tilt_rad)
-        normal = (plane.normal + std::tan(params.max_side_tilt_rad) *
-                                    (normal - normal.dot(plane.normal) * plane.normal).normalized()).normalized();
-      result.side_tilt_rad = std::min(tilt, params.max_side_tilt_rad);
-      if (normal.allFinite() && result.side_tilt_rad > 1e-5) {
-        tri = triangulate(stereo.rect1_from_cam1 * normal);
-        rim_fit = build_rim(tri);
-      }
-    }
+    WarpFitOptions fit;
+    fit.tilt_ridge = 1e-4;
+    Eigen::Vector3d normal = WarpSurface::Fit(plane, rim.outer, rim.inner, fit).SheetNormal(*centre);
+    // A tilt beyond what a resting part can have is a failed fit: capped.
+    const double tilt = std::acos(std::clamp(normal.dot(plane.normal), -1.0, 1.0));
+    if (tilt > params.max_side_tilt_rad)
+      normal = (plane.normal + std::tan(params.max_side_tilt_rad) *
+                                  (normal - normal.dot(plane.normal) * plane.normal).normalized()).normalized();
+    result.side_tilt_rad = std::min(tilt, params.max_side_tilt_rad);
+    if (!normal.allFinite() || result.side_tilt_rad <= 1e-5) break;
+    tri = triangulate(stereo.rect1_from_cam1 * normal);
+    rim = build_rim(tri);
   }
   timer.Mark("triangulation");
 
-  const std::vector<bool>& drop = rim_fit.drop;
   std::vector<int> result_index(tri.points.size(), -1);
   for (size_t i = 0; i < tri.points.size(); ++i) {
-    if (!tri.keep[i] || drop[i]) continue;
+    if (!tri.keep[i] || rim.drop[i]) continue;
     result_index[i] = static_cast<int>(result.points.size());
     result.points.push_back(tri.points[i]);
   }
   std::vector<std::pair<int, int>> chain_order;  // (chain index, index in result.points)
-  for (const auto& [index, i] : rim_fit.order) chain_order.emplace_back(index, result_index[i]);
-  std::vector<Eigen::Vector3d> rim = rim_fit.points;
-  const std::vector<double>& rim_heights = rim_fit.heights;
-  const std::vector<double>& rim_weights = rim_fit.weights;
+  for (const auto& [index, i] : rim.order) chain_order.emplace_back(index, result_index[i]);
   result.valid = static_cast<int>(result.points.size());
-  if (rim.size() < 10)
+  if (rim.outer.size() < 10)
     ThrowInputError("{} and {}: only {} valid points on the part's outline (expected at least 10): check focus, "
-                    "exposure and calibration", left_name, right_name, rim.size());
-  const std::vector<double>& smoothed = rim_fit.smoothed;
+                    "exposure and calibration", left_name, right_name, rim.outer.size());
+  // Heights: warp surface plus the significant local deviations (flatness/rim_heights.h).
+  RimHeightOptions height_options;
+  height_options.sigma_mm = params.height_smoothing_mm;
+  height_options.significance = params.deviation_significance;
+  const RimHeights heights = EstimateRimHeights(plane, rim.outer, rim.inner, height_options);
+  result.rim_noise_mm = heights.deviation_spread_mm;
+  result.local_deviations = heights.significant;
+  // Each rim point moved along the plane normal to its estimated height, so the zone
+  // widths (lsq_pv, minzone) see the same rim as flatness_mm.
+  std::vector<Eigen::Vector3d> rim_all = rim.outer.points;
+  std::vector<double> heights_all = heights.heights;
   for (size_t j = 0; j < chain_order.size(); ++j) {
-    // The smoothed rim: each point moved along the plane normal to its smoothed height,
-    // so the zone widths (lsq_pv, minzone) see the same rim as flatness_mm.
-    rim[j] += (smoothed[j] - rim_heights[j]) * plane.normal;
-    result.points[chain_order[j].second].height_mm = smoothed[j];
+    rim_all[j] += (heights.heights[j] - rim.outer.heights[j]) * plane.normal;
+    result.points[chain_order[j].second].height_mm = heights.heights[j];
   }
-  timer.Mark("outlier_removal");
+  timer.Mark("rim_heights");
 
   // Coverage: outer-boundary chain segments with a valid point within 2 segments.
   const ContourInfo& outer = lb.contours[left_part];
@@ -735,26 +532,20 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   result.coverage = total > 0 ? covered / total : 0.0;
 
   // Stretches the two cameras cannot measure (boundary along the epipolar rows) are
-  // completed from the part's low-order warp fitted to the measured rim.
-  std::vector<Eigen::Vector3d> rim_all = rim;
-  std::vector<double> heights_all = smoothed;
+  // completed from the warp surface fitted to the measured rim and hole edges.
   if (params.complete_unmeasured && result.coverage < 1.0) {
-    std::vector<Eigen::Vector3d> inner;
-    std::vector<double> inner_heights, inner_weights;
-    inner_points(tri, rim_fit, &inner, &inner_heights, &inner_weights);
-    const RimSurfaceModel model(plane, rim, smoothed, rim_weights, inner, inner_heights, inner_weights);
-    const auto [lo, hi] = std::minmax_element(smoothed.begin(), smoothed.end());
+    const auto [lo, hi] = std::minmax_element(heights.heights.begin(), heights.heights.end());
     const double measured_min = *lo, measured_max = *hi, margin = 0.5 * (*hi - *lo) + 0.02;
     for (int i = 0; i < n; ++i) {
       if (has_point[i]) continue;
       const EdgePoint& e = lb.points[outer.begin + i];
-      const Eigen::Vector3d bottom = model.LiftLeftSilhouette(rig.left, Eigen::Vector2d(e.x, e.y), Eigen::Vector2d(e.nx, e.ny),
-                                                               params.thickness_correction ? params.thickness_mm : 0.0);
+      const Eigen::Vector3d bottom = LiftLeftSilhouette(heights.warp, rig.left, Eigen::Vector2d(e.x, e.y), Eigen::Vector2d(e.nx, e.ny),
+                                                        params.thickness_correction ? params.thickness_mm : 0.0);
       if (!bottom.allFinite()) continue;
       // A safety net for a fit the data do not hold (once +4.5 mm on a 0.2 mm part): a
       // completed height beyond the measured rim's range widened by half that range
       // (plus 20 um) is not used.
-      const double h = model.Height(bottom);
+      const double h = heights.warp.Height(bottom);
       if (h > measured_max + margin || h < measured_min - margin) continue;
       rim_all.push_back(bottom);
       heights_all.push_back(h);

@@ -31,12 +31,12 @@ struct InspectionParams {
   double max_height_mm = 5.0;   // disparity search: parts from -0.5 mm to this above the plane
   double outlier_radius_mm = 0.25;
   int outlier_min_neighbours = 3;
-  // Heights along the rim are smoothed by a local quadratic with Gaussian weights of
-  // this sigma (arc length, mm) before the maximum is taken, so that the maximum is
-  // the part's and not the noise's. Measured on the paper preset (evaluate, seed 1):
-  // 0.15 mm left a +1.3 um bias of the maximum and a repeat SD of 2.3 um; 0.25 mm gives
-  // +0.5 um and 1.0 um (a quadratic still follows a peak's curvature at this width).
-  double height_smoothing_mm = 0.25;
+  // Rim heights are the fitted warp surface plus the local deviations from it that
+  // stand out of their noise (flatness/rim_heights.h): deviations are smoothed along
+  // the rim with this sigma (arc length, mm) and kept beyond `deviation_significance`
+  // robust spreads.
+  double height_smoothing_mm = 0.3;
+  double deviation_significance = 3.5;
   // Complete the outline where the cameras cannot measure it (boundary along the
   // epipolar rows) from a cubic warp surface fitted to the measured rim.
   bool complete_unmeasured = true;
@@ -58,6 +58,8 @@ struct InspectionResult {
   double coverage = 0.0;         // fraction of the outer boundary's length with valid points
   int completed = 0;             // outline points completed from the warp model
   double side_tilt_rad = 0.0;    // estimated tilt of the side faces from the support normal
+  double rim_noise_mm = 0.0;     // robust spread of the smoothed deviations from the warp surface
+  int local_deviations = 0;      // rim points whose deviation from the warp surface stands out
   double blur_left_px = 0, blur_right_px = 0;
   std::vector<InspectedPoint> points;  // valid points
   std::vector<std::pair<std::string, double>> timing_ms;  // per stage, in order

@@ -22,6 +22,11 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
 
 std::vector<bool> RadiusOutlierFilter(const std::vector<Eigen::Vector3d>& points, double radius_mm,
                                       int min_neighbours) {
+  return RadiusOutlierFilter(points, std::vector<double>(points.size(), radius_mm), min_neighbours);
+}
+
+std::vector<bool> RadiusOutlierFilter(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& radii_mm,
+                                      int min_neighbours) {
   std::vector<bool> keep(points.size(), false);
   if (points.empty()) return keep;
   const PointCloudAdaptor cloud{points};
@@ -31,7 +36,7 @@ std::vector<bool> RadiusOutlierFilter(const std::vector<Eigen::Vector3d>& points
   const nanoflann::SearchParams params(32, 0.0f, false);
   for (size_t i = 0; i < points.size(); ++i) {
     found.clear();
-    const size_t n = tree.radiusSearch(points[i].data(), radius_mm * radius_mm, found, params);
+    const size_t n = tree.radiusSearch(points[i].data(), radii_mm[i] * radii_mm[i], found, params);
     keep[i] = static_cast<int>(n) - 1 >= min_neighbours;  // the point itself is found too
   }
   return keep;

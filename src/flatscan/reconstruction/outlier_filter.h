@@ -11,5 +11,9 @@ namespace flatscan {
 // Returns one flag per point: true = keep.
 std::vector<bool> RadiusOutlierFilter(const std::vector<Eigen::Vector3d>& points, double radius_mm,
                                       int min_neighbours);
+// The same with a radius per point (points sampled more sparsely need a larger one to
+// find their true neighbours).
+std::vector<bool> RadiusOutlierFilter(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& radii_mm,
+                                      int min_neighbours);
 
 }  // namespace flatscan

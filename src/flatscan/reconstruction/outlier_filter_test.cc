@@ -32,5 +32,24 @@ TEST(OutlierFilter, MatchesBruteForceCounts) {
   }
 }
 
+// A boundary stretch near the epipolar rows is sampled sparsely (one crossing per row
+// is 1 / |n_x| pixels along it): with one radius its points lose their neighbours;
+// with a radius of 2.5 spacings they keep them, and an isolated point still goes.
+TEST(OutlierFilter, PerPointRadiusKeepsSparseStretch) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> radii;
+  for (int i = 0; i < 50; ++i) {
+    points.emplace_back(0.15 * i, 0.0, 200.0);  // 0.15 mm apart
+    radii.push_back(2.5 * 0.15);
+  }
+  points.emplace_back(3.0, 2.0, 200.0);
+  radii.push_back(0.375);
+  const std::vector<bool> one_radius = RadiusOutlierFilter(points, 0.25, 3);
+  EXPECT_FALSE(one_radius[25]);
+  const std::vector<bool> keep = RadiusOutlierFilter(points, radii, 3);
+  for (int i = 2; i < 48; ++i) EXPECT_TRUE(keep[i]) << i;  // the ends have neighbours on one side only
+  EXPECT_FALSE(keep[50]);
+}
+
 }  // namespace
 }  // namespace flatscan

@@ -1,0 +1,317 @@
+#include "flatscan/flatness/rim_heights.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Dense>
+
+namespace flatscan {
+namespace {
+
+// exp(-u / 2) for u = (d / sigma)^2 in [0, 9] (the smoothing's reach) by linear
+// interpolation in a table: relative error below 1e-6, several times cheaper than exp
+// for the ~10^5 neighbour weights of a rim.
+double GaussianOfSquare(double u) {
+  constexpr int kSize = 2048;
+  constexpr double kMax = 9.0;
+  static const std::vector<double> table = [] {
+    std::vector<double> t(kSize + 2);
+    for (int i = 0; i < kSize + 2; ++i) t[i] = std::exp(-0.5 * kMax * i / kSize);
+    return t;
+  }();
+  const double x = std::clamp(u, 0.0, kMax) * (kSize / kMax);
+  const int i = static_cast<int>(x);
+  return table[i] + (x - i) * (table[i + 1] - table[i]);
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t half = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + half, values.end());
+  return values[half];
+}
+
+// Tukey's biweight for a residual in units of 4.685 robust spreads.
+double Biweight(double u) { return std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0.0; }
+
+// Mismatched crossings on the ordered, closed rim. A run of them (a few consecutive
+// crossings matched to another edge, millimetres off) would pull a plain first fit so
+// far that reweighting rejects its good neighbours too, so they are found first
+// against medians of two neighbourhoods, the 15 and the 51 nearest points along the
+// rim however far they are (a run isolated between two unmatched stretches is then
+// judged by the rim beyond the gaps). A point is gross when it is further than
+// max(10 spreads, 20 um) from the near median (five crossings matched to a wrong
+// edge, +4.7 mm), more than 0.2 mm from the far one (a smooth run of 24 ramping to
+// +5.2 mm: a real rim does not leave its 51 neighbours' median by that much), or
+// 30 um below the support plane. `median` is the median it is judged by.
+struct GrossPoints {
+  std::vector<char> gross;
+  std::vector<double> median;
+};
+
+GrossPoints FindGrossPoints(const std::vector<double>& heights) {
+  constexpr int kNearHalf = 7, kFarHalf = 25;
+  constexpr double kFarMm = 0.2, kBelowPlaneMm = 0.03;
+  const int n = static_cast<int>(heights.size());
+  GrossPoints out{std::vector<char>(n, 0), std::vector<double>(n)};
+  if (n < 5) return out;
+  std::vector<double> window;
+  auto median_of = [&](int i, int half) {
+    window.clear();
+    for (int k = -half; k <= half; ++k) window.push_back(heights[((i + k) % n + n) % n]);
+    std::nth_element(window.begin(), window.begin() + half, window.end());
+    return window[half];
+  };
+  std::vector<double> deviation(n);
+  std::vector<char> far(n, 0);
+  for (int i = 0; i < n; ++i) {
+    out.median[i] = median_of(i, kNearHalf);
+    deviation[i] = std::abs(heights[i] - out.median[i]);
+    const double far_median = median_of(i, std::min(kFarHalf, (n - 1) / 2));
+    if (std::abs(heights[i] - far_median) > kFarMm || heights[i] < -kBelowPlaneMm) {
+      far[i] = 1;
+      out.median[i] = far_median;
+    }
+  }
+  const double threshold = std::max(10 * 1.4826 * Median(deviation), 0.02);
+  for (int i = 0; i < n; ++i) out.gross[i] = far[i] || deviation[i] > threshold;
+  return out;
+}
+
+// Each rim point's neighbours within 3 sigma of arc length (itself, then forward,
+// then backward) with their signed arc lengths and Gaussian-times-inverse-variance
+// weights. Arc length along the rim as camera 1 sees it: each point's line of sight
+// cut with the plane (camera 1 at the origin), so a mismatched point, millimetres off
+// in depth, stays where its neighbours are along the rim instead of a jump away.
+struct RimNeighbours {
+  std::vector<int> begin, neighbour;
+  std::vector<double> offset, weight;
+};
+
+RimNeighbours FindRimNeighbours(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights,
+                                double sigma_mm, const SupportPlane& plane) {
+  const int n = static_cast<int>(points.size());
+  const double level = plane.normal.dot(plane.point);
+  auto on_plane = [&](const Eigen::Vector3d& p) { return Eigen::Vector3d(p * (level / plane.normal.dot(p))); };
+  std::vector<double> arc(n + 1, 0.0);
+  for (int i = 1; i <= n; ++i) arc[i] = arc[i - 1] + (on_plane(points[i % n]) - on_plane(points[i - 1])).norm();
+  const double length = arc[n];
+  const double reach = 3 * sigma_mm;
+  auto delta = [&](int i, int j) {  // signed arc length from i to j the short way round
+    double d = arc[j] - arc[i];
+    if (d > 0.5 * length) d -= length;
+    if (d < -0.5 * length) d += length;
+    return d;
+  };
+  RimNeighbours out;
+  out.begin.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    out.begin[i] = static_cast<int>(out.neighbour.size());
+    auto add = [&](int j) {
+      const double ds = delta(i, j);
+      if (std::abs(ds) > reach) return false;
+      out.neighbour.push_back(j);
+      out.offset.push_back(ds);
+      out.weight.push_back(weights[j] * GaussianOfSquare((ds / sigma_mm) * (ds / sigma_mm)));
+      return true;
+    };
+    add(i);
+    int k = 1;
+    for (; k < n && add((i + k) % n); ++k) {}
+    for (int back = 1; back < n - k + 1 && add(((i - back) % n + n) % n); ++back) {}
+  }
+  out.begin[n] = static_cast<int>(out.neighbour.size());
+  return out;
+}
+
+// Each value replaced by a weighted local quadratic in arc length, h = c0 + c1 ds +
+// c2 ds^2 (it averages the noise but, unlike a plain average, does not flatten a
+// smooth peak), robust: gross points start with weight 0, then two Tukey-biweight
+// passes on the residuals in units of each point's own noise. A point where no fit
+// can be made keeps its value, or `fallback` if it is gross.
+// `variance`, if given, receives each fitted value's variance for unit-variance data of
+// weight 1 (the data's variances being 1 / weights): e1' A^-1 B A^-1 e1 with A and B
+// the moment matrices of the kernel-times-robust weights w and of w^2 / weights.
+std::vector<double> RobustLocalQuadratic(const RimNeighbours& nb, const std::vector<double>& values,
+                                         const std::vector<double>& weights, const std::vector<char>& gross,
+                                         const std::vector<double>& fallback, std::vector<double>* variance = nullptr) {
+  const int n = static_cast<int>(values.size());
+  std::vector<double> robust(n);
+  for (int i = 0; i < n; ++i) robust[i] = gross[i] ? 0.0 : 1.0;
+  std::vector<double> out(n), abs_z(n);
+  if (variance) variance->assign(n, std::numeric_limits<double>::infinity());
+  for (int pass = 0; pass < 3; ++pass) {
+    const bool last = pass == 2;
+    for (int i = 0; i < n; ++i) {
+      double m0 = 0, m1 = 0, m2 = 0, m3 = 0, m4 = 0, b0 = 0, b1 = 0, b2 = 0;
+      double q0 = 0, q1 = 0, q2 = 0, q3 = 0, q4 = 0;  // moments of w^2 / weight
+      int used = 0;
+      for (int e = nb.begin[i]; e < nb.begin[i + 1]; ++e) {
+        const int j = nb.neighbour[e];
+        const double w = nb.weight[e] * robust[j];
+        const double ds = nb.offset[e], ds2 = ds * ds, h = values[j];
+        m0 += w;
+        m1 += w * ds;
+        m2 += w * ds2;
+        m3 += w * ds2 * ds;
+        m4 += w * ds2 * ds2;
+        b0 += w * h;
+        b1 += w * ds * h;
+        b2 += w * ds2 * h;
+        used += w > 0;
+        if (last && variance && w > 0) {
+          const double v = w * w / weights[j];
+          q0 += v;
+          q1 += v * ds;
+          q2 += v * ds2;
+          q3 += v * ds2 * ds;
+          q4 += v * ds2 * ds2;
+        }
+      }
+      out[i] = gross[i] ? fallback[i] : values[i];
+      if (used < 5) continue;
+      Eigen::Matrix3d ata;
+      ata << m0, m1, m2, m1, m2, m3, m2, m3, m4;
+      const Eigen::LDLT<Eigen::Matrix3d> solver(ata);
+      const Eigen::Vector3d coef = solver.solve(Eigen::Vector3d(b0, b1, b2));
+      if (!coef.allFinite()) continue;
+      out[i] = coef[0];
+      if (last && variance) {
+        Eigen::Matrix3d b;
+        b << q0, q1, q2, q1, q2, q3, q2, q3, q4;
+        const Eigen::Vector3d row = solver.solve(Eigen::Vector3d::UnitX());
+        (*variance)[i] = row.dot(b * row);
+      }
+    }
+    if (last) break;
+    for (int i = 0; i < n; ++i) abs_z[i] = std::abs((values[i] - out[i]) * std::sqrt(weights[i]));
+    const double spread = 1.4826 * Median(abs_z);
+    if (!(spread > 0)) break;
+    for (int i = 0; i < n; ++i) robust[i] = Biweight((values[i] - out[i]) * std::sqrt(weights[i]) / (4.685 * spread));
+  }
+  return out;
+}
+
+}  // namespace
+
+WarpSurface::Vector WarpSurface::Basis(const Eigen::Vector3d& p) const {
+  const double x = (p - centre_).dot(e1_) / 10.0, y = (p - centre_).dot(e2_) / 10.0;
+  Vector v;
+  v << 1, x, y, x * x, x * y, y * y, x * x * x, x * x * y, x * y * y, y * y * y;
+  return v;
+}
+
+double WarpSurface::Height(const Eigen::Vector3d& p) const { return Basis(p).dot(coefficients_); }
+
+Eigen::Vector3d WarpSurface::SheetNormal(const Eigen::Vector3d& p) const {
+  const double x = (p - centre_).dot(e1_) / 10.0, y = (p - centre_).dot(e2_) / 10.0;
+  Vector dx, dy;
+  dx << 0, 1, 0, 2 * x, y, 0, 3 * x * x, 2 * x * y, y * y, 0;
+  dy << 0, 0, 1, 0, x, 2 * y, 0, x * x, 2 * x * y, 3 * y * y;
+  const double gx = dx.dot(coefficients_) / 10.0, gy = dy.dot(coefficients_) / 10.0;  // mm per mm
+  return (plane_.normal - gx * e1_ - gy * e2_).normalized();
+}
+
+WarpSurface WarpSurface::Fit(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
+                             const WarpFitOptions& options) {
+  return FitRobust(plane, rim, inner, options, FindGrossPoints(rim.heights).gross);
+}
+
+// Weighted least squares by the normal equations (at most 11 unknowns, coordinates in
+// units of 10 mm so the cubic terms stay of order one), then Tukey reweighting.
+WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
+                                   const WarpFitOptions& options, const std::vector<char>& rim_gross) {
+  WarpSurface s;
+  s.plane_ = plane;
+  s.e1_ = plane.normal.unitOrthogonal();
+  s.e2_ = plane.normal.cross(s.e1_);
+  for (const Eigen::Vector3d& p : rim.points) s.centre_ += p;
+  if (rim.size() > 0) s.centre_ /= static_cast<double>(rim.size());
+  const bool use_inner = inner.size() >= 10;
+  const int columns = use_inner ? kTerms + 1 : kTerms;
+  const size_t n = rim.size() + (use_inner ? inner.size() : 0);
+  if (rim.size() + (use_inner ? 1 : 0) < static_cast<size_t>(columns)) return s;
+  // Row i: basis (plus the inner offset indicator), height, inverse variance.
+  Eigen::MatrixXd basis(n, columns);
+  Eigen::VectorXd h(n), w(n), robust(n);
+  for (size_t i = 0; i < n; ++i) {
+    const bool is_inner = i >= rim.size();
+    const HeightSamples& from = is_inner ? inner : rim;
+    const size_t k = is_inner ? i - rim.size() : i;
+    basis.row(i).head(kTerms) = s.Basis(from.points[k]).transpose();
+    if (use_inner) basis(i, kTerms) = is_inner ? 1.0 : 0.0;
+    h[i] = from.heights[k];
+    w[i] = from.weights[k];
+    robust[i] = !is_inner && k < rim_gross.size() && rim_gross[k] ? 0.0 : 1.0;
+  }
+  Eigen::VectorXd solution = Eigen::VectorXd::Zero(columns);
+  for (int pass = 0; pass <= options.robust_passes; ++pass) {
+    const Eigen::VectorXd row_weight = w.cwiseProduct(robust);
+    Eigen::MatrixXd ata = basis.transpose() * row_weight.asDiagonal() * basis;
+    const Eigen::VectorXd atb = basis.transpose() * row_weight.cwiseProduct(h);
+    const double total = row_weight.sum();
+    for (int t = 1; t < 3; ++t) ata(t, t) += options.tilt_ridge * total;
+    for (int t = 3; t < kTerms; ++t) ata(t, t) += options.curvature_ridge * total;
+    const Eigen::VectorXd next = ata.ldlt().solve(atb);
+    if (!next.allFinite()) break;
+    solution = next;
+    if (pass == options.robust_passes) break;
+    const Eigen::VectorXd z = (h - basis * solution).cwiseProduct(w.cwiseSqrt());
+    std::vector<double> abs_z(n);
+    for (size_t i = 0; i < n; ++i) abs_z[i] = std::abs(z[i]);
+    const double spread = 1.4826 * Median(std::move(abs_z));
+    if (!(spread > 0)) break;
+    for (size_t i = 0; i < n; ++i) robust[i] = Biweight(z[i] / (4.685 * spread));
+  }
+  s.coefficients_ = solution.head(kTerms);
+  return s;
+}
+
+std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& heights,
+                                   const std::vector<double>& weights, double sigma_mm, const SupportPlane& plane) {
+  if (sigma_mm <= 0 || points.size() < 5) return heights;
+  const GrossPoints gross = FindGrossPoints(heights);
+  return RobustLocalQuadratic(FindRimNeighbours(points, weights, sigma_mm, plane), heights, weights, gross.gross,
+                              gross.median);
+}
+
+RimHeights EstimateRimHeights(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
+                              const RimHeightOptions& options) {
+  const GrossPoints gross = FindGrossPoints(rim.heights);
+  RimHeights out{WarpSurface::FitRobust(plane, rim, inner, options.warp, gross.gross), {}, {}, 0.0, 0};
+  const int n = static_cast<int>(rim.size());
+  out.heights.resize(n);
+  for (int i = 0; i < n; ++i) out.heights[i] = out.warp.Height(rim.points[i]);
+  if (n < 10 || options.sigma_mm <= 0) return out;
+  std::vector<double> residual(n), fallback(n, 0.0);
+  for (int i = 0; i < n; ++i) residual[i] = rim.heights[i] - out.heights[i];
+  for (int i = 0; i < n; ++i)
+    if (!gross.gross[i]) fallback[i] = residual[i];
+  std::vector<double> variance;
+  out.deviation = RobustLocalQuadratic(FindRimNeighbours(rim.points, rim.weights, options.sigma_mm, plane), residual,
+                                       rim.weights, gross.gross, fallback, &variance);
+  // Each deviation in units of its own standard deviation (up to one scale: the
+  // points' noise is correlated along the rim and not known), the scale from the rim
+  // itself: sparse, ill-conditioned stretches (boundary near the rows) are noisier.
+  std::vector<double> z(n, 0.0), magnitude;
+  magnitude.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    if (!(variance[i] > 0) || !std::isfinite(variance[i])) continue;
+    z[i] = out.deviation[i] / std::sqrt(variance[i]);
+    if (!gross.gross[i]) magnitude.push_back(std::abs(z[i]));
+  }
+  const double z_spread = 1.4826 * Median(std::move(magnitude));
+  const double tau = options.significance * z_spread;
+  double spread_sum = 0;
+  for (int i = 0; i < n; ++i) {
+    if (std::isfinite(variance[i])) spread_sum += z_spread * std::sqrt(variance[i]);
+    if (!(std::abs(z[i]) > tau)) continue;
+    out.heights[i] += out.deviation[i] * (1 - (tau / z[i]) * (tau / z[i]));  // non-negative garrote
+    ++out.significant;
+  }
+  out.deviation_spread_mm = spread_sum / n;
+  return out;
+}
+
+}  // namespace flatscan
