@@ -340,8 +340,10 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
   return result;
 }
 
-std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMap& map) {
+std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMap& map,
+                                   std::vector<std::vector<Eigen::Vector2d>>* mapped_chains) {
   std::vector<RowCrossing> out;
+  if (mapped_chains) mapped_chains->assign(boundary.contours.size(), {});
   for (size_t c = 0; c < boundary.contours.size(); ++c) {
     const ContourInfo& info = boundary.contours[c];
     const int n = info.end - info.begin;
@@ -384,6 +386,7 @@ std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMa
         out.push_back(rc);
       }
     }
+    if (mapped_chains) (*mapped_chains)[c] = std::move(mapped);
   }
   return out;
 }

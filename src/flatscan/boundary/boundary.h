@@ -84,6 +84,9 @@ struct RowCrossing {
   double raw_x = 0, raw_y = 0;  // the same crossing in the image (interpolated likewise)
 };
 using PointMap = std::function<Eigen::Vector2d(const Eigen::Vector2d&)>;
-std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMap& map = {});
+// `mapped_chains`, if given, receives every contour's chain points mapped (one vector
+// per contour, in chain order; empty for contours of fewer than 2 points).
+std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMap& map = {},
+                                   std::vector<std::vector<Eigen::Vector2d>>* mapped_chains = nullptr);
 
 }  // namespace flatscan

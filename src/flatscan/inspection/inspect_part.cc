@@ -173,23 +173,33 @@ Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, 
 template <typename Range>
 void CheckDisparitySign(const std::vector<RowCrossing>& lc, const std::vector<RowCrossing>& rc, int left_part,
                         int right_part, const Range& range, const std::string& left_name, const std::string& right_name) {
-  std::map<int, double> first_left, first_right;
-  for (const RowCrossing& a : lc)
-    if (a.contour == left_part && (!first_left.count(a.row) || a.x < first_left[a.row])) first_left[a.row] = a.x;
-  for (const RowCrossing& b : rc)
-    if (b.contour == right_part && (!first_right.count(b.row) || b.x < first_right[b.row])) first_right[b.row] = b.x;
+  // (row, leftmost x) of one contour's crossings, by row.
+  auto leftmost = [](const std::vector<RowCrossing>& crossings, int contour) {
+    std::vector<std::pair<int, double>> rows;
+    for (const RowCrossing& c : crossings)
+      if (c.contour == contour) rows.emplace_back(c.row, c.x);
+    std::sort(rows.begin(), rows.end());
+    rows.erase(std::unique(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+               rows.end());
+    return rows;
+  };
+  const std::vector<std::pair<int, double>> first_left = leftmost(lc, left_part), first_right = leftmost(rc, right_part);
   std::vector<double> offsets;  // observed minus expected disparity, in units of the allowed range
-  for (const auto& [row, xl] : first_left) {
-    const auto it = first_right.find(row);
-    if (it == first_right.end()) continue;
+  for (size_t i = 0, j = 0; i < first_left.size() && j < first_right.size();) {
+    if (first_left[i].first != first_right[j].first) {
+      (first_left[i].first < first_right[j].first ? i : j)++;
+      continue;
+    }
+    const auto [row, xl] = first_left[i];
     const auto [lo, hi] = range(xl, row);
-    offsets.push_back(((xl - it->second) - lo) / std::max(hi - lo, 1.0));
+    offsets.push_back(((xl - first_right[j].second) - lo) / std::max(hi - lo, 1.0));
+    ++i, ++j;
   }
   // Rows are epipolar lines: the outline's first and last rows are the same in both
   // rectified images (its extreme points lie on tangent epipolar planes).
   if (!first_left.empty() && !first_right.empty()) {
-    const int top = std::abs(first_left.begin()->first - first_right.begin()->first);
-    const int bottom = std::abs(first_left.rbegin()->first - first_right.rbegin()->first);
+    const int top = std::abs(first_left.front().first - first_right.front().first);
+    const int bottom = std::abs(first_left.back().first - first_right.back().first);
     if (std::max(top, bottom) > 3)
       ThrowInputError("{} and {}: the part's outline spans different rows in the two rectified views ({} px apart): the "
                       "images do not fit the rig: check that left and right are not swapped and that the rig file "
@@ -225,7 +235,9 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   const CameraRectification left_rect(rig.left, rig.rectification.R1, rig.rectification.P1);
   const CameraRectification right_rect(rig.right, rig.rectification.R2, rig.rectification.P2);
   const std::vector<RowCrossing> lc = CrossRows(lb, [&](const Eigen::Vector2d& p) { return left_rect.ToRectified(p); });
-  const std::vector<RowCrossing> rc = CrossRows(rb, [&](const Eigen::Vector2d& p) { return right_rect.ToRectified(p); });
+  std::vector<std::vector<Eigen::Vector2d>> right_rectified;  // each right contour's chain, rectified
+  const std::vector<RowCrossing> rc =
+      CrossRows(rb, [&](const Eigen::Vector2d& p) { return right_rect.ToRectified(p); }, &right_rectified);
   result.crossings_left = static_cast<int>(lc.size());
   result.crossings_right = static_cast<int>(rc.size());
   timer.Mark("rectify_crossings");
@@ -279,11 +291,10 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     const int n = info.end - info.begin;
     const int pad = info.closed ? kReach : 0;
     if (chain.empty()) {
+      const std::vector<Eigen::Vector2d>& rectified = right_rectified[b.contour];
       chain.reserve(n + 2 * pad + 1);
-      for (int k = -pad; k < n + pad + 1; ++k) {
-        const int i = info.begin + ((k % n) + n) % n;
-        if (info.closed || k < n) chain.push_back(right_rect.ToRectified(Eigen::Vector2d(rb.points[i].x, rb.points[i].y)));
-      }
+      for (int k = -pad; k < n + pad + 1; ++k)
+        if (info.closed || k < n) chain.push_back(rectified[((k % n) + n) % n]);
     }
     const int first = std::max(0, b.index - kReach + pad);
     const int last = std::min(static_cast<int>(chain.size()) - 1, b.index + 1 + kReach + pad);
@@ -296,6 +307,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     std::vector<double> weight;      // inverse variance: a crossing's x error grows as 1 / |n_x|
     std::vector<int> chain_index;    // the left crossing's chain index
     std::vector<BottomPoint> seen;   // which edges, how the faces are seen
+    std::vector<int> match;          // index in `matches`
     std::vector<bool> keep;          // radius outlier filter
   };
   const Eigen::Matrix3d cam1_from_rect1 = stereo.rect1_from_cam1.transpose();
@@ -305,6 +317,10 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     silhouettes.reserve(matches.size());
     for (const StereoMatch& m : matches) silhouettes.push_back(right_silhouette(rc[m.right]));
   }
+  // The radius filter runs on the first pass only: a change of the side-face direction
+  // moves points by t times the change of tilt (micrometres), not across a 0.25 mm
+  // radius; later passes keep the first pass's verdict per match.
+  std::vector<char> keep_match;
   auto triangulate = [&](const Eigen::Vector3d& side) {
     Triangulated t;
     std::vector<Eigen::Vector3d> cam1;
@@ -334,6 +350,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
       t.seen.push_back(bp);
       cam1.push_back(p.cam1);
       t.chain_index.push_back(a.index);
+      t.match.push_back(static_cast<int>(mi));
       t.weight.push_back(a.nx * a.nx * b.nx * b.nx / (a.nx * a.nx + b.nx * b.nx));
       // Consecutive row crossings lie one row / |n_x| apart along the boundary: where it
       // runs near the rows they are sparse, and the radius must reach 2.5 spacings to
@@ -341,7 +358,14 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
       const double spacing_mm = p.cam1.z() / stereo.f / std::max(std::abs(a.nx), 1e-3);
       radii.push_back(std::max(params.outlier_radius_mm, 2.5 * spacing_mm));
     }
-    t.keep = RadiusOutlierFilter(cam1, radii, params.outlier_min_neighbours);
+    if (keep_match.empty()) {
+      t.keep = RadiusOutlierFilter(cam1, radii, params.outlier_min_neighbours);
+      keep_match.assign(matches.size(), 0);
+      for (size_t i = 0; i < t.keep.size(); ++i) keep_match[t.match[i]] = t.keep[i];
+    } else {
+      t.keep.resize(t.points.size());
+      for (size_t i = 0; i < t.keep.size(); ++i) t.keep[i] = keep_match[t.match[i]];
+    }
     return t;
   };
   // The rim of one triangulation: valid outer points in chain order (by the left

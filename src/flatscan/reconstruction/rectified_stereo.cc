@@ -97,11 +97,13 @@ double SolveOnRightSilhouette(const RectifiedStereo& s, const Eigen::Vector3d& d
   if (!std::isfinite(best_a)) return std::numeric_limits<double>::quiet_NaN();
   // lambda d_L + delta = C2 + mu d_R (they meet: q is the image of a point of the line).
   const Eigen::Vector3d dr = s.RightRay(q.x(), q.y());
-  Eigen::Matrix<double, 3, 2> m;
-  m.col(0) = dl;
-  m.col(1) = -dr;
-  const Eigen::Vector2d x = m.colPivHouseholderQr().solve(s.RightCentre() - delta);
-  return x[0] * dl.z();
+  // Least squares for (lambda, mu) by the 2 x 2 normal equations (the rays are far from
+  // parallel: the baseline subtends degrees).
+  const Eigen::Vector3d rhs = s.RightCentre() - delta;
+  const double a11 = dl.dot(dl), a12 = -dl.dot(dr), a22 = dr.dot(dr);
+  const double b1 = dl.dot(rhs), b2 = -dr.dot(rhs);
+  const double lambda = (a22 * b1 - a12 * b2) / (a11 * a22 - a12 * a12);
+  return lambda * dl.z();
 }
 
 }  // namespace
