@@ -24,6 +24,8 @@ nlohmann::json InspectionToJson(const InspectionResult& r, const InspectionParam
   j["points"] = {{"crossings_left", r.crossings_left}, {"crossings_right", r.crossings_right},
                  {"matched", r.matched}, {"valid", r.valid}, {"completed", r.completed}};
   j["coverage"] = r.coverage;
+  j["rim_model"] = {{"noise_mm", r.rim_noise_mm}, {"local_deviations", r.local_deviations},
+                    {"side_tilt_rad", r.side_tilt_rad}};
   j["blur_sigma_px"] = {r.blur_left_px, r.blur_right_px};
   nlohmann::json timing = nlohmann::json::object();
   double total = 0;

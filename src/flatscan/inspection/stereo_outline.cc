@@ -1,0 +1,221 @@
+#include "flatscan/inspection/stereo_outline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <tuple>
+
+#include <opencv2/core/eigen.hpp>
+
+#include "flatscan/reconstruction/rectified_stereo.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// Raw image point <-> rectified point of one camera (exact undistortion).
+struct CameraRectification {
+  const Camera& camera;
+  Eigen::Matrix3d rect_from_cam;
+  double f, cx, cy;
+  CameraRectification(const Camera& cam, const cv::Mat& r, const cv::Mat& p) : camera(cam) {
+    cv::cv2eigen(r, rect_from_cam);
+    f = p.at<double>(0, 0);
+    cx = p.at<double>(0, 2);
+    cy = p.at<double>(1, 2);
+  }
+  Eigen::Vector2d ToRectified(const Eigen::Vector2d& raw) const {
+    const Eigen::Vector2d n = camera.PixelToNormalized(raw);
+    const Eigen::Vector3d x = rect_from_cam * Eigen::Vector3d(n.x(), n.y(), 1.0);
+    return {f * x.x() / x.z() + cx, f * x.y() / x.z() + cy};
+  }
+  Eigen::Vector2d ToRaw(const Eigen::Vector2d& rect) const {
+    const Eigen::Vector3d x = rect_from_cam.transpose() * Eigen::Vector3d((rect.x() - cx) / f, (rect.y() - cy) / f, 1.0);
+    return camera.NormalizedToPixel(Eigen::Vector2d(x.x() / x.z(), x.y() / x.z()));
+  }
+};
+
+double SignedArea(const BoundaryResult& b, const ContourInfo& c) {
+  double area = 0;
+  for (int i = c.begin; i < c.end; ++i) {
+    const EdgePoint& p = b.points[i];
+    const EdgePoint& q = b.points[i + 1 < c.end ? i + 1 : c.begin];
+    area += p.x * q.y - q.x * p.y;
+  }
+  return 0.5 * area;
+}
+
+// A closed contour whose normals (dark -> bright) point away from its centroid
+// encloses dark material: a part's outer boundary (holes have them pointing inward).
+bool EnclosesMaterial(const BoundaryResult& b, const ContourInfo& c) {
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (int i = c.begin; i < c.end; ++i) centroid += Eigen::Vector2d(b.points[i].x, b.points[i].y);
+  centroid /= (c.end - c.begin);
+  double outward = 0;
+  for (int i = c.begin; i < c.end; ++i)
+    outward += (Eigen::Vector2d(b.points[i].x, b.points[i].y) - centroid).dot(Eigen::Vector2d(b.points[i].nx, b.points[i].ny));
+  return outward > 0;
+}
+
+// Checks what the image shows and returns the outer contour of the one part.
+int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::string& name) {
+  if (b.bright_level < 60)
+    ThrowInputError("{}: under-exposed (backlight grey level {:.0f}; expected at least 60): increase exposure or light", name, b.bright_level);
+  if (b.saturated_fraction > 0.25)
+    ThrowInputError("{}: over-exposed ({:.0f}% of the backlight is saturated at 255): reduce exposure so the backlight stays below 255",
+                    name, 100 * b.saturated_fraction);
+  int best = -1, parts = 0;
+  double best_area = 0;
+  std::vector<double> areas(b.contours.size(), 0.0);
+  const double min_area = 1e-4 * image.cols * image.rows;
+  for (size_t c = 0; c < b.contours.size(); ++c) {
+    const ContourInfo& info = b.contours[c];
+    if (!info.closed || !EnclosesMaterial(b, info)) continue;
+    areas[c] = std::abs(SignedArea(b, info));
+    if (areas[c] > best_area) best_area = areas[c], best = static_cast<int>(c);
+  }
+  // Open contours that end at the image border: a part cut by the border.
+  for (const ContourInfo& info : b.contours) {
+    if (info.closed || info.length_px < 50) continue;
+    const EdgePoint& a = b.points[info.begin];
+    const EdgePoint& z = b.points[info.end - 1];
+    auto near_border = [&](const EdgePoint& p) {
+      return p.x < 10 || p.y < 10 || p.x > image.cols - 11 || p.y > image.rows - 11;
+    };
+    if (near_border(a) || near_border(z))
+      ThrowInputError("{}: the part touches the image border: place it fully inside both cameras' views", name);
+  }
+  if (best < 0 || best_area < min_area)
+    ThrowInputError("{}: no part found (expected a dark part on the bright backlight, fully in view)", name);
+  for (size_t c = 0; c < b.contours.size(); ++c)
+    if (areas[c] > 0.1 * best_area) ++parts;
+  if (parts > 1) ThrowInputError("{}: {} parts found: inspect one part at a time", name, parts);
+  return best;
+}
+
+// Disparities a part resting on the plane can have at a left crossing: between
+// 0.5 mm below the plane and max_height_mm above it, along the left ray, widened by
+// half a pixel.
+class PlausibleDisparities {
+ public:
+  PlausibleDisparities(const RectifiedStereo& stereo, const SupportPlane& plane, double max_height_mm)
+      : stereo_(stereo),
+        up_(stereo.rect1_from_cam1 * plane.normal),
+        on_plane_(stereo.rect1_from_cam1 * plane.point),
+        max_height_mm_(max_height_mm) {}
+  std::pair<double, double> operator()(double x, int row) const {
+    const Eigen::Vector3d d = stereo_.LeftRay(x, row);
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (double h : {-0.5, max_height_mm_}) {
+      const Eigen::Vector3d p = d * (up_.dot(on_plane_ + h * up_) / up_.dot(d));
+      const double disparity = stereo_.Disparity(p);
+      lo = std::min(lo, disparity), hi = std::max(hi, disparity);
+    }
+    return {lo - 0.5, hi + 0.5};
+  }
+
+ private:
+  const RectifiedStereo& stereo_;
+  Eigen::Vector3d up_, on_plane_;
+  double max_height_mm_;
+};
+
+// The part's outline enters each row at its leftmost crossing in both images; the
+// disparity there must be the support plane's plus at most a few mm of height. With
+// the images swapped it comes out near the negative of the expected one.
+void CheckDisparitySign(const std::vector<RowCrossing>& lc, const std::vector<RowCrossing>& rc, int left_part,
+                        int right_part, const PlausibleDisparities& range, const std::string& left_name, const std::string& right_name) {
+  // (row, leftmost x) of one contour's crossings, by row.
+  auto leftmost = [](const std::vector<RowCrossing>& crossings, int contour) {
+    std::vector<std::pair<int, double>> rows;
+    for (const RowCrossing& c : crossings)
+      if (c.contour == contour) rows.emplace_back(c.row, c.x);
+    std::sort(rows.begin(), rows.end());
+    rows.erase(std::unique(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+               rows.end());
+    return rows;
+  };
+  const std::vector<std::pair<int, double>> first_left = leftmost(lc, left_part), first_right = leftmost(rc, right_part);
+  std::vector<double> offsets;  // observed minus expected disparity, in units of the allowed range
+  for (size_t i = 0, j = 0; i < first_left.size() && j < first_right.size();) {
+    if (first_left[i].first != first_right[j].first) {
+      (first_left[i].first < first_right[j].first ? i : j)++;
+      continue;
+    }
+    const auto [row, xl] = first_left[i];
+    const auto [lo, hi] = range(xl, row);
+    offsets.push_back(((xl - first_right[j].second) - lo) / std::max(hi - lo, 1.0));
+    ++i, ++j;
+  }
+  // Rows are epipolar lines: the outline's first and last rows are the same in both
+  // rectified images (its extreme points lie on tangent epipolar planes).
+  if (!first_left.empty() && !first_right.empty()) {
+    const int top = std::abs(first_left.front().first - first_right.front().first);
+    const int bottom = std::abs(first_left.back().first - first_right.back().first);
+    if (std::max(top, bottom) > 3)
+      ThrowInputError("{} and {}: the part's outline spans different rows in the two rectified views ({} px apart): the "
+                      "images do not fit the rig: check that left and right are not swapped and that the rig file "
+                      "belongs to these cameras", left_name, right_name, std::max(top, bottom));
+  }
+  if (offsets.size() < 10) return;
+  std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
+  const double median = offsets[offsets.size() / 2];
+  if (median < -1.0)
+    ThrowInputError("{} and {}: the disparities are negative: the left and right images look swapped", left_name, right_name);
+}
+
+// Nothing matched: left and right swapped show as disparities of the opposite sign;
+// anything else is a rig or plane that does not belong to these images.
+[[noreturn]] void ThrowNothingMatched(const std::vector<RowCrossing>& lc, const std::vector<RowCrossing>& rc,
+                                      const PlausibleDisparities& range, const std::string& left_name,
+                                      const std::string& right_name) {
+  int negative = 0, total = 0;
+  for (const RowCrossing& a : lc)
+    for (const RowCrossing& b : rc)
+      if (a.row == b.row && (a.nx > 0) == (b.nx > 0)) {
+        const auto [lo, hi] = range(a.x, a.row);
+        ++total;
+        if ((b.x - a.x) >= lo && (b.x - a.x) <= hi) ++negative;
+      }
+  if (total > 0 && negative > total / 10)
+    ThrowInputError("{} and {}: the disparities are negative: the left and right images look swapped", left_name, right_name);
+  ThrowInputError("{} and {}: no boundary point could be matched between the images (expected the same part seen by both "
+                  "cameras of this rig on this support plane): check the rig and plane files", left_name, right_name);
+}
+
+}  // namespace
+
+StereoOutline MatchStereoOutline(const StereoRig& rig, const SupportPlane& plane, const cv::Mat1b& left,
+                                 const cv::Mat1b& right, const InspectionParams& params, const std::string& left_name,
+                                 const std::string& right_name, StageTimer* timer) {
+  for (const auto& [image, name, cam] : {std::tuple(&left, &left_name, &rig.left), std::tuple(&right, &right_name, &rig.right)})
+    if (image->cols != cam->width || image->rows != cam->height)
+      ThrowInputError("{}: image is {}x{} but the rig was calibrated for {}x{}: use the images of the calibrated cameras",
+                      *name, image->cols, image->rows, cam->width, cam->height);
+  StereoOutline out;
+  out.left = DetectBoundary(left, params.boundary);
+  timer->Mark("boundary_left");
+  out.right = DetectBoundary(right, params.boundary);
+  timer->Mark("boundary_right");
+  out.left_part = FindPartContour(out.left, left, left_name);
+  out.right_part = FindPartContour(out.right, right, right_name);
+
+  const CameraRectification left_rect(rig.left, rig.rectification.R1, rig.rectification.P1);
+  const CameraRectification right_rect(rig.right, rig.rectification.R2, rig.rectification.P2);
+  out.left_crossings = CrossRows(out.left, [&](const Eigen::Vector2d& p) { return left_rect.ToRectified(p); });
+  out.right_crossings =
+      CrossRows(out.right, [&](const Eigen::Vector2d& p) { return right_rect.ToRectified(p); }, &out.right_chains);
+  timer->Mark("rectify_crossings");
+
+  const RectifiedStereo stereo = RectifiedStereo::FromRig(rig);
+  const PlausibleDisparities range(stereo, plane, params.max_height_mm);
+  CheckDisparitySign(out.left_crossings, out.right_crossings, out.left_part, out.right_part, range, left_name, right_name);
+  out.matches = MatchCrossings(out.left_crossings, out.right_crossings, left, right,
+                               [&](const Eigen::Vector2d& p) { return left_rect.ToRaw(p); },
+                               [&](const Eigen::Vector2d& p) { return right_rect.ToRaw(p); }, range, params.matching);
+  timer->Mark("matching");
+  if (out.matches.empty()) ThrowNothingMatched(out.left_crossings, out.right_crossings, range, left_name, right_name);
+  return out;
+}
+
+}  // namespace flatscan
