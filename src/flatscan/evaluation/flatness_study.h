@@ -142,4 +142,29 @@ BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptio
 
 RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyOptions& options, int index);
 
+// --- rotation study: what a part's rotation to the camera baseline costs ---
+// The same `parts` parts (drawn like the batch's lot) placed at rotations 0, step,
+// ..., max_deg about the support normal (0: the part's x axis along the baseline, so
+// two sides run along the epipolar rows, which two cameras cannot measure).
+struct RotationStudyOptions : StudyOptions {
+  double max_deg = 45.0, step_deg = 5.0;
+  int parts = 10;
+  LotSpec lot;
+};
+
+struct RotationRow {
+  double rotation_deg = 0;
+  std::vector<PartMeasurement> parts;
+  int measured = 0;
+  double coverage_min = 0, coverage_median = 0;
+  ErrorSummary errors;
+};
+
+struct RotationStudy {
+  std::vector<RotationRow> rows;
+};
+
+RotationStudy RunRotationStudy(const CalibratedStation& station, const RotationStudyOptions& options,
+                               const StudyProgress& progress = {});
+
 }  // namespace flatscan

@@ -176,6 +176,54 @@ cv::Mat3b RepeatShotsChart(const RepeatStudy& st) {
   return DrawPlot(spec);
 }
 
+std::string RotationMarkdown(const RotationStudy& st, const RotationStudyOptions& o) {
+  std::string md = fmt::format(
+      "### Coverage against the part's rotation to the camera baseline: the same {} parts at every angle\n\n", o.parts);
+  md += "| rotation (deg) | measured | coverage lowest | coverage median | abs(error) median (um) | abs(error) max (um) |\n";
+  md += "|---|---|---|---|---|---|\n";
+  for (const RotationRow& r : st.rows)
+    md += fmt::format("| {:.1f} | {}/{} | {:.3f} | {:.3f} | {:.2f} | {:.2f} |\n", r.rotation_deg, r.measured, r.parts.size(),
+                      r.coverage_min, r.coverage_median, 1000 * r.errors.median_abs_mm, 1000 * r.errors.max_abs_mm);
+  md += "\nCoverage: the fraction of the outline's length with valid 3D points. Sides within a few degrees of the "
+        "baseline lie in one epipolar plane: two cameras on one baseline cannot see their depth, and they are completed "
+        "from the fitted warp surface (a prior, not a measurement).\n";
+  return md;
+}
+
+nlohmann::json RotationJson(const RotationStudy& st, const RotationStudyOptions& o) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const RotationRow& r : st.rows) {
+    nlohmann::json parts = nlohmann::json::array();
+    for (const PartMeasurement& m : r.parts) parts.push_back(MeasurementJson(m));
+    rows.push_back({{"rotation_deg", r.rotation_deg}, {"measured", r.measured}, {"coverage_min", r.coverage_min},
+                    {"coverage_median", r.coverage_median}, {"errors", ErrorJson(r.errors)}, {"parts", parts}});
+  }
+  return {{"parts_per_angle", o.parts}, {"step_deg", o.step_deg}, {"max_deg", o.max_deg}, {"seed", o.seed}, {"rows", rows}};
+}
+
+cv::Mat3b RotationChart(const RotationStudy& st) {
+  PlotSpec spec;
+  spec.title = "Coverage against the part's rotation to the camera baseline";
+  spec.x_label = "rotation (deg)";
+  spec.y_label = "coverage of the outline";
+  spec.y_from_zero = true;
+  PlotSeries lowest, median;
+  lowest.style = median.style = PlotSeries::Style::kLine;
+  lowest.colour = kRed;
+  lowest.label = "lowest";
+  median.colour = kBlue;
+  median.label = "median";
+  for (const RotationRow& r : st.rows) {
+    lowest.x.push_back(r.rotation_deg);
+    lowest.y.push_back(r.coverage_min);
+    median.x.push_back(r.rotation_deg);
+    median.y.push_back(r.coverage_median);
+  }
+  spec.series = {median, lowest};
+  spec.references.push_back({false, BatchStudy::kGoodCoverage, kOrange, "0.9"});
+  return DrawPlot(spec);
+}
+
 cv::Mat3b MeasuredVsTrueChart(const BatchStudy& st, double tol) {
   PlotSpec spec;
   spec.title = fmt::format("Measured against true flatness, {} parts", st.parts.size());

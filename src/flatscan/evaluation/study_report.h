@@ -27,16 +27,20 @@ inline constexpr int kPaperBatchParts = 200;
 std::string CalibrationMarkdown(const CalibratedStation& station);
 std::string RepeatMarkdown(const RepeatStudy& study, const RepeatStudyOptions& options);
 std::string BatchMarkdown(const BatchStudy& study, const BatchStudyOptions& options);
+std::string RotationMarkdown(const RotationStudy& study, const RotationStudyOptions& options);
 
 nlohmann::json CalibrationJson(const CalibratedStation& station);
 nlohmann::json RepeatJson(const RepeatStudy& study, const RepeatStudyOptions& options);
 nlohmann::json BatchJson(const BatchStudy& study, const BatchStudyOptions& options);
+nlohmann::json RotationJson(const RotationStudy& study, const RotationStudyOptions& options);
 
 // Charts: measured flatness of every shot against the shot index with the truth and
 // the mean; measured against true flatness with the tolerance and the guard band;
 // histogram of the errors (um) with +-U.
 cv::Mat3b RepeatShotsChart(const RepeatStudy& study);
 cv::Mat3b MeasuredVsTrueChart(const BatchStudy& study, double tolerance_mm);
+// Coverage (lowest and median) and the largest |error| against the rotation.
+cv::Mat3b RotationChart(const RotationStudy& study);
 cv::Mat3b ErrorHistogramChart(const std::vector<PartMeasurement>& parts, double uncertainty_mm, const std::string& title);
 
 }  // namespace flatscan

@@ -52,6 +52,14 @@ class EvaluateCommand : public Command {
     sub_->add_option("--lot-spread", batch_options_.lot.log_spread,
                      "standard deviation of ln(flatness) in the lot (smaller: more parts near the tolerance)")
         ->default_val(0.8)->check(CLI::Range(0.05, 3.0));
+    sub_->add_option("--rotation-step", rotation_options_.step_deg,
+                     "coverage against rotation: parts turned 0 to --rotation-max degrees to the camera baseline in "
+                     "steps of this many degrees")
+        ->check(CLI::PositiveNumber);
+    sub_->add_option("--rotation-max", rotation_options_.max_deg, "largest rotation of the rotation study, degrees")
+        ->default_val(45.0)->check(CLI::Range(0.0, 360.0));
+    sub_->add_option("--rotation-parts", rotation_options_.parts, "parts of the rotation study (the same at every angle)")
+        ->default_val(10)->check(CLI::Range(1, 100000));
     sub_->add_option("--calib-poses", calib_poses_, "chessboard pairs for the rig calibration")->default_val(14)->check(CLI::Range(3, 200));
     sub_->add_option("--save-worst", save_worst_,
                      "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
@@ -64,12 +72,16 @@ class EvaluateCommand : public Command {
   }
 
   int Run() override {
-    if (!repeat_ && batch_options_.parts <= 0)
-      ThrowInputError("evaluate: expected --repeat and/or --batch N (for example: flatscan evaluate --repeat --batch 1000)");
+    const bool rotation = rotation_options_.step_deg > 0;
+    if (!repeat_ && batch_options_.parts <= 0 && !rotation)
+      ThrowInputError("evaluate: expected --repeat, --batch N and/or --rotation-step DEG (for example: flatscan evaluate "
+                      "--repeat --batch 1000)");
     if (batch_options_.parts > 0) CheckLotSpec(batch_options_.lot, tolerance_);
     SceneConfig scene = scene_file_.empty() ? ScenePreset(preset_) : LoadSceneFile(scene_file_);
     scene.board.poses = calib_poses_;
-    for (StudyOptions* o : {static_cast<StudyOptions*>(&repeat_options_), static_cast<StudyOptions*>(&batch_options_)}) {
+    rotation_options_.lot = batch_options_.lot;
+    for (StudyOptions* o : {static_cast<StudyOptions*>(&repeat_options_), static_cast<StudyOptions*>(&batch_options_),
+                            static_cast<StudyOptions*>(&rotation_options_)}) {
       o->tolerance_mm = tolerance_;
       o->seed = seed_;
       o->inspection.thickness_correction = !no_correction_;
@@ -115,6 +127,14 @@ class EvaluateCommand : public Command {
         SaveWorstParts(station, study.parts, root / "worst", [&](int i) { return RenderBatchPart(station, batch_options_, i); });
       WriteImage((root / "batch_error_histogram.png").string(),
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
+    }
+    if (rotation) {
+      const RotationStudy study = RunRotationStudy(station, rotation_options_, ProgressLogger("rotation: part"));
+      const std::string part = RotationMarkdown(study, rotation_options_) + "\n";
+      std::cout << part << std::flush;
+      md += part;
+      json["rotation"] = RotationJson(study, rotation_options_);
+      WriteImage((root / "rotation_coverage.png").string(), RotationChart(study));
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json["total_seconds"] = seconds;
@@ -169,6 +189,11 @@ class EvaluateCommand : public Command {
     WriteTextFileAtomically(dir / "truth.json", truth.dump(1) + "\n");
   }
   RepeatStudyOptions repeat_options_;
+  RotationStudyOptions rotation_options_ = [] {
+    RotationStudyOptions o;
+    o.step_deg = 0;  // off unless --rotation-step
+    return o;
+  }();
   BatchStudyOptions batch_options_ = [] {
     BatchStudyOptions o;
     o.parts = 0;

@@ -215,7 +215,11 @@ std::vector<double> RobustLocalQuadratic(const RimNeighbours& nb, const std::vec
     for (int i = 0; i < n; ++i) abs_z[i] = std::abs((values[i] - out[i]) * std::sqrt(weights[i]));
     const double spread = 1.4826 * Median(abs_z);
     if (!(spread > 0)) break;
-    for (int i = 0; i < n; ++i) robust[i] = Biweight((values[i] - out[i]) * std::sqrt(weights[i]) / (4.685 * spread));
+    // Gross points stay out: an isolated pair of them would otherwise be readmitted by
+    // a fit they dominate (measured: two mismatched crossings between two gaps carried a
+    // 12 mm-lens part's maximum by +16 um).
+    for (int i = 0; i < n; ++i)
+      robust[i] = gross[i] ? 0.0 : Biweight((values[i] - out[i]) * std::sqrt(weights[i]) / (4.685 * spread));
   }
   return out;
 }
@@ -273,13 +277,15 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
     robust[i] = !is_inner && k < rim_gross.size() && rim_gross[k] ? 0.0 : 1.0;
   }
   Eigen::VectorXd solution = Eigen::VectorXd::Zero(columns);
+  double curvature_ridge = -1;  // absolute; the first pass takes the relative start value
   for (int pass = 0; pass <= options.robust_passes; ++pass) {
     const Eigen::VectorXd row_weight = w.cwiseProduct(robust);
     Eigen::MatrixXd ata = basis.transpose() * row_weight.asDiagonal() * basis;
     const Eigen::VectorXd atb = basis.transpose() * row_weight.cwiseProduct(h);
     const double total = row_weight.sum();
+    if (curvature_ridge < 0) curvature_ridge = options.curvature_ridge * total;
     for (int t = 1; t < 3; ++t) ata(t, t) += options.tilt_ridge * total;
-    for (int t = 3; t < kTerms; ++t) ata(t, t) += options.curvature_ridge * total;
+    for (int t = 3; t < kTerms; ++t) ata(t, t) += curvature_ridge;
     const Eigen::VectorXd next = ata.ldlt().solve(atb);
     if (!next.allFinite()) break;
     solution = next;
@@ -289,7 +295,11 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
     for (size_t i = 0; i < n; ++i) abs_z[i] = std::abs(z[i]);
     const double spread = 1.4826 * Median(std::move(abs_z));
     if (!(spread > 0)) break;
-    for (size_t i = 0; i < n; ++i) robust[i] = Biweight(z[i] / (4.685 * spread));
+    if (options.curvature_prior_mm > 0) curvature_ridge = (spread / options.curvature_prior_mm) * (spread / options.curvature_prior_mm);
+    for (size_t i = 0; i < n; ++i) {
+      const bool gross = i < rim.size() && i < rim_gross.size() && rim_gross[i];
+      robust[i] = gross ? 0.0 : Biweight(z[i] / (4.685 * spread));
+    }
   }
   s.coefficients_ = solution.head(kTerms);
   return s;

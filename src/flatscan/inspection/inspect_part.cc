@@ -41,18 +41,31 @@ Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, 
   return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 }
 
-// Per segment of the left outline (chain point i to i + 1): whether a valid rim point
-// lies within 2 segments; and the covered fraction of the outline's length.
+// Per segment of the left outline (chain point i to i + 1): whether valid rim points
+// sample it; and the covered fraction of the outline's length. A segment is sampled
+// when a valid point lies within 2 segments, or when it lies between two consecutive
+// valid points on adjacent rows at most kMaxGap segments apart: a boundary running at
+// a shallow angle to the rows is crossed only every 1 / |n_x| chain points, and all
+// of its crossings were measured (the matcher takes |n_x| down to 0.04: 25 points).
 struct OutlineCoverage {
   std::vector<char> covered;
   double fraction = 0;
 };
 
-OutlineCoverage CoverOutline(const BoundaryResult& boundary, const ContourInfo& outer, const std::vector<int>& chain_indices) {
+OutlineCoverage CoverOutline(const BoundaryResult& boundary, const ContourInfo& outer, const std::vector<int>& chain_indices,
+                             const std::vector<int>& rows) {
+  constexpr int kMaxGap = 28;
   const int n = outer.end - outer.begin;
   OutlineCoverage out{std::vector<char>(n, 0), 0.0};
-  for (int index : chain_indices)
-    for (int k = -2; k <= 2; ++k) out.covered[((index + k) % n + n) % n] = 1;
+  auto wrap = [n](int i) { return ((i % n) + n) % n; };
+  const int m = static_cast<int>(chain_indices.size());
+  for (int j = 0; j < m; ++j) {
+    for (int k = -2; k <= 2; ++k) out.covered[wrap(chain_indices[j] + k)] = 1;
+    const int next = (j + 1) % m;
+    const int gap = wrap(chain_indices[next] - chain_indices[j]);
+    if (gap <= kMaxGap && std::abs(rows[next] - rows[j]) <= 1)
+      for (int k = 0; k < gap; ++k) out.covered[wrap(chain_indices[j] + k)] = 1;
+  }
   double covered = 0, total = 0;
   for (int i = 0; i < n; ++i) {
     const EdgePoint& p = boundary.points[outer.begin + i];
@@ -107,7 +120,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   timer.Mark("rim_heights");
 
   const ContourInfo& outer = outline.left.contours[outline.left_part];
-  const OutlineCoverage coverage = CoverOutline(outline.left, outer, measured.rim_chain_index);
+  const OutlineCoverage coverage = CoverOutline(outline.left, outer, measured.rim_chain_index, measured.rim_row);
   result.coverage = coverage.fraction;
   // Stretches the two cameras cannot measure (boundary along the epipolar rows) are
   // completed from the warp surface fitted to the measured rim and hole edges.

@@ -40,7 +40,7 @@ nlohmann::json InspectionToJson(const InspectionResult& r, const InspectionParam
   if (r.coverage < 0.9)
     j["warning"] = fmt::format(
         "only {:.0f}% of the outline was measured: stretches running along the epipolar rows cannot be matched and "
-        "were completed from the fitted warp; turn the part at least 5 degrees to the camera baseline for a full "
+        "were completed from the fitted warp; turn the part at least 10 degrees to the camera baseline for a full "
         "measurement", 100 * r.coverage);
   return j;
 }

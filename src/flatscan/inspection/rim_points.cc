@@ -72,6 +72,7 @@ struct Triangulation {
   std::vector<InspectedPoint> points;
   std::vector<double> weight;      // inverse variance: a crossing's x error grows as 1 / |n_x|
   std::vector<int> chain_index;    // the left crossing's chain index
+  std::vector<int> row;            // the left crossing's rectified row
   std::vector<BottomPoint> seen;   // which edges, how the faces are seen
   std::vector<int> match;          // index in the matches
   std::vector<bool> keep;          // radius outlier filter
@@ -122,6 +123,7 @@ class Triangulator {
       t.seen.push_back(bp);
       cam1.push_back(p.cam1);
       t.chain_index.push_back(a.index);
+      t.row.push_back(a.row);
       t.match.push_back(static_cast<int>(mi));
       t.weight.push_back(a.nx * a.nx * b.nx * b.nx / (a.nx * a.nx + b.nx * b.nx));
       // Consecutive row crossings lie one row / |n_x| apart along the boundary: where it
@@ -267,6 +269,7 @@ RimPoints CollectRim(const Triangulation& tri, double pixel_scale, bool thicknes
     if (drop[i]) continue;
     out.rim.Add(tri.points[i].cam1, tri.points[i].height_mm, tri.weight[i]);
     out.rim_chain_index.push_back(chain_index);
+    out.rim_row.push_back(tri.row[i]);
     out.rim_point.push_back(index_in_points[i]);
   }
   return out;

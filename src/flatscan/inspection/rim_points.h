@@ -16,9 +16,9 @@ namespace flatscan {
 struct RimPoints {
   std::vector<InspectedPoint> points;  // every valid point (rim and hole edges), camera-1 frame
   // The part's bottom rim in the left outline's chain order (heights above the plane,
-  // raw), with each sample's chain index and index in `points`.
+  // raw), with each sample's left chain index, rectified row and index in `points`.
   HeightSamples rim;
-  std::vector<int> rim_chain_index, rim_point;
+  std::vector<int> rim_chain_index, rim_row, rim_point;
   HeightSamples inner;                 // the holes' edges
   double side_tilt_rad = 0;            // of the side faces from the support normal
 };
