@@ -43,21 +43,6 @@ double Median(std::vector<double> values) {
 // Tukey's biweight for a residual in units of 4.685 robust spreads.
 double Biweight(double u) { return std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0.0; }
 
-// Mismatched crossings on the ordered, closed rim. A run of them (a few consecutive
-// crossings matched to another edge, millimetres off) would pull a plain first fit so
-// far that reweighting rejects its good neighbours too, so they are found first
-// against medians of two neighbourhoods, the 15 and the 51 nearest points along the
-// rim however far they are (a run isolated between two unmatched stretches is then
-// judged by the rim beyond the gaps). A point is gross when it is further than
-// max(10 spreads, 20 um) from the near median (five crossings matched to a wrong
-// edge, +4.7 mm), more than 0.2 mm from the far one (a smooth run of 24 ramping to
-// +5.2 mm: a real rim does not leave its 51 neighbours' median by that much), or
-// 30 um below the support plane. `median` is the median it is judged by.
-struct GrossPoints {
-  std::vector<char> gross;
-  std::vector<double> median;
-};
-
 // Median of the 2 half + 1 values centred on each index of a closed sequence: one
 // sorted window slid round (an erase and an insert of a few dozen doubles per step),
 // several times cheaper than a selection per window.
@@ -78,26 +63,30 @@ std::vector<double> CircularMedians(const std::vector<double>& values, int half)
   return out;
 }
 
-GrossPoints FindGrossPoints(const std::vector<double>& heights) {
+// Mismatched crossings on the ordered, closed rim. A run of them (a few consecutive
+// crossings matched to another edge, millimetres off) would pull a plain first fit so
+// far that reweighting rejects its good neighbours too, so they are found first
+// against medians of two neighbourhoods, the 15 and the 51 nearest points along the
+// rim however far they are (a run isolated between two unmatched stretches is then
+// judged by the rim beyond the gaps). A point is gross when it is further than
+// max(10 spreads, 20 um) from the near median (five crossings matched to a wrong
+// edge, +4.7 mm), more than 0.2 mm from the far one (a smooth run of 24 ramping to
+// +5.2 mm: a real rim does not leave its 51 neighbours' median by that much), or
+// 30 um below the support plane.
+std::vector<char> FindGrossPoints(const std::vector<double>& heights) {
   constexpr int kNearHalf = 7, kFarHalf = 25;
   constexpr double kFarMm = 0.2, kBelowPlaneMm = 0.03;
   const int n = static_cast<int>(heights.size());
-  GrossPoints out{std::vector<char>(n, 0), std::vector<double>(n)};
-  if (n < 5) return out;
-  out.median = CircularMedians(heights, kNearHalf);
+  std::vector<char> gross(n, 0);
+  if (n < 5) return gross;
+  const std::vector<double> near_median = CircularMedians(heights, kNearHalf);
   const std::vector<double> far_median = CircularMedians(heights, std::min(kFarHalf, (n - 1) / 2));
   std::vector<double> deviation(n);
-  std::vector<char> far(n, 0);
-  for (int i = 0; i < n; ++i) {
-    deviation[i] = std::abs(heights[i] - out.median[i]);
-    if (std::abs(heights[i] - far_median[i]) > kFarMm || heights[i] < -kBelowPlaneMm) {
-      far[i] = 1;
-      out.median[i] = far_median[i];
-    }
-  }
+  for (int i = 0; i < n; ++i) deviation[i] = std::abs(heights[i] - near_median[i]);
   const double threshold = std::max(10 * 1.4826 * Median(deviation), 0.02);
-  for (int i = 0; i < n; ++i) out.gross[i] = far[i] || deviation[i] > threshold;
-  return out;
+  for (int i = 0; i < n; ++i)
+    gross[i] = deviation[i] > threshold || std::abs(heights[i] - far_median[i]) > kFarMm || heights[i] < -kBelowPlaneMm;
+  return gross;
 }
 
 // Each rim point's neighbours within 3 sigma of arc length (itself, then forward,
@@ -154,15 +143,15 @@ RimNeighbours FindRimNeighbours(const std::vector<Eigen::Vector3d>& points, cons
 
 // Each value replaced by a weighted local quadratic in arc length, h = c0 + c1 ds +
 // c2 ds^2 (it averages the noise but, unlike a plain average, does not flatten a
-// smooth peak), robust: gross points start with weight 0, then two Tukey-biweight
+// smooth peak), robust: gross points have weight 0 throughout, the others two Tukey-biweight
 // passes on the residuals in units of each point's own noise. A point where no fit
-// can be made keeps its value, or `fallback` if it is gross.
+// can be made keeps its value (0 if it is gross: the values here are deviations).
 // `variance`, if given, receives each fitted value's variance for unit-variance data of
 // weight 1 (the data's variances being 1 / weights): e1' A^-1 B A^-1 e1 with A and B
 // the moment matrices of the kernel-times-robust weights w and of w^2 / weights.
 std::vector<double> RobustLocalQuadratic(const RimNeighbours& nb, const std::vector<double>& values,
                                          const std::vector<double>& weights, const std::vector<char>& gross,
-                                         const std::vector<double>& fallback, std::vector<double>* variance = nullptr) {
+                                         std::vector<double>* variance) {
   const int n = static_cast<int>(values.size());
   std::vector<double> robust(n);
   for (int i = 0; i < n; ++i) robust[i] = gross[i] ? 0.0 : 1.0;
@@ -196,7 +185,7 @@ std::vector<double> RobustLocalQuadratic(const RimNeighbours& nb, const std::vec
           q4 += v * ds2 * ds2;
         }
       }
-      out[i] = gross[i] ? fallback[i] : values[i];
+      out[i] = gross[i] ? 0.0 : values[i];
       if (used < 5) continue;
       Eigen::Matrix3d ata;
       ata << m0, m1, m2, m1, m2, m3, m2, m3, m4;
@@ -246,7 +235,7 @@ Eigen::Vector3d WarpSurface::SheetNormal(const Eigen::Vector3d& p) const {
 
 WarpSurface WarpSurface::Fit(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
                              const WarpFitOptions& options) {
-  return FitRobust(plane, rim, inner, options, FindGrossPoints(rim.heights).gross);
+  return FitRobust(plane, rim, inner, options, FindGrossPoints(rim.heights));
 }
 
 // Weighted least squares by the normal equations (at most 11 unknowns, coordinates in
@@ -305,29 +294,19 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
   return s;
 }
 
-std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& heights,
-                                   const std::vector<double>& weights, double sigma_mm, const SupportPlane& plane) {
-  if (sigma_mm <= 0 || points.size() < 5) return heights;
-  const GrossPoints gross = FindGrossPoints(heights);
-  return RobustLocalQuadratic(FindRimNeighbours(points, weights, sigma_mm, plane), heights, weights, gross.gross,
-                              gross.median);
-}
-
 RimHeights EstimateRimHeights(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
                               const RimHeightOptions& options) {
-  const GrossPoints gross = FindGrossPoints(rim.heights);
-  RimHeights out{WarpSurface::FitRobust(plane, rim, inner, options.warp, gross.gross), {}, {}, 0.0, 0};
+  const std::vector<char> gross = FindGrossPoints(rim.heights);
+  RimHeights out{WarpSurface::FitRobust(plane, rim, inner, options.warp, gross), {}, {}, 0.0, 0};
   const int n = static_cast<int>(rim.size());
   out.heights.resize(n);
   for (int i = 0; i < n; ++i) out.heights[i] = out.warp.Height(rim.points[i]);
   if (n < 10 || options.sigma_mm <= 0) return out;
-  std::vector<double> residual(n), fallback(n, 0.0);
+  std::vector<double> residual(n);
   for (int i = 0; i < n; ++i) residual[i] = rim.heights[i] - out.heights[i];
-  for (int i = 0; i < n; ++i)
-    if (!gross.gross[i]) fallback[i] = residual[i];
   std::vector<double> variance;
   out.deviation = RobustLocalQuadratic(FindRimNeighbours(rim.points, rim.weights, options.sigma_mm, plane), residual,
-                                       rim.weights, gross.gross, fallback, &variance);
+                                       rim.weights, gross, &variance);
   // Each deviation in units of its own standard deviation (up to one scale: the
   // points' noise is correlated along the rim and not known), the scale from the rim
   // itself: sparse, ill-conditioned stretches (boundary near the rows) are noisier.
@@ -336,7 +315,7 @@ RimHeights EstimateRimHeights(const SupportPlane& plane, const HeightSamples& ri
   for (int i = 0; i < n; ++i) {
     if (!(variance[i] > 0) || !std::isfinite(variance[i])) continue;
     z[i] = out.deviation[i] / std::sqrt(variance[i]);
-    if (!gross.gross[i]) magnitude.push_back(std::abs(z[i]));
+    if (!gross[i]) magnitude.push_back(std::abs(z[i]));
   }
   const double z_spread = 1.4826 * Median(std::move(magnitude));
   const double tau = options.significance * z_spread;

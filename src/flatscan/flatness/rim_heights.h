@@ -13,10 +13,11 @@
 //
 // D is what the warp does not explain: a dent, a burr, a warp of higher order. The
 // residuals h - W are smoothed along the rim by a robust local quadratic (Gaussian
-// weights of sigma mm), and the smoothed deviation d is kept only where it stands out
-// of its own noise: with r the robust spread of d over the rim and tau = k r, the
-// non-negative garrote  D = d - tau^2 / d  for |d| > tau, else 0. Without this the
-// largest of a few hundred noisy heights is biased upward by one to two of their
+// weights of sigma mm) into d, and d is kept only where it stands out of its own noise:
+// with z = d / sd(d) (sd from the local fit's weights: a sparse, ill-conditioned
+// stretch is noisier), r the robust spread of z over the rim and tau = k r, the
+// non-negative garrote  D = d (1 - (tau / z)^2)  for |z| > tau, else 0. Without this
+// the largest of a few thousand noisy heights is biased upward by one to two of their
 // standard deviations (measured: +5.3 um on the 12 mm-lens rig); with it a deviation
 // of 4 tau is kept to within tau / 4.
 //
@@ -92,14 +93,6 @@ class WarpSurface {
   Eigen::Vector3d e1_, e2_, centre_ = Eigen::Vector3d::Zero();
   Vector coefficients_ = Vector::Zero();
 };
-
-// Heights along the ordered, closed rim, each replaced by a local quadratic in arc
-// length fitted with Gaussian weights (sigma in mm, arc length along camera 1's lines
-// of sight cut with the plane: camera 1 is at the origin of the points' frame). Robust:
-// gross points are found first against the medians of their neighbours, then two
-// Tukey-biweight reweighting passes. `weights` are relative inverse variances.
-std::vector<double> SmoothAlongRim(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& heights,
-                                   const std::vector<double>& weights, double sigma_mm, const SupportPlane& plane);
 
 struct RimHeightOptions {
   double sigma_mm = 0.3;      // smoothing of the deviation from the warp along the rim

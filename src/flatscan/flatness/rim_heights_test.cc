@@ -133,6 +133,18 @@ TEST(RimHeights, IgnoresARunOfMismatchedPoints) {
   EXPECT_NEAR(Max(h.heights), true_max, 0.001);
 }
 
+// A warp of higher order than the cubic (quartic terms of 20 um at the part's ends)
+// is mostly taken up by the cubic on a closed rim: the maximum stays within 1.5 um.
+TEST(RimHeights, QuarticWarpStaysWithinAMicrometreAndAHalf) {
+  auto quartic = [](const Eigen::Vector2d& p) {
+    const double x = p.x() / 8, y = p.y() / 5;
+    return Warp(p) + 0.02 * (x * x * x * x + 0.5 * y * y * y * y);
+  };
+  double true_max = 0;
+  const HeightSamples rim = Sample(quartic, 0.002, 7, &true_max);
+  EXPECT_NEAR(Max(EstimateRimHeights(Plane(), rim, {}).heights), true_max, 0.0015);
+}
+
 // Hole edges join the fit with their own height offset (a part with folded walls stands
 // on the walls' rim, the holes are in the sheet 2 mm above): the offset does not leak
 // into the rim's heights, and gross hole points are down-weighted like rim points.

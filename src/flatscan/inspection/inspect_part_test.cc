@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -24,12 +25,15 @@ struct RenderedPart {
   cv::Mat1b left, right;
 };
 
+// Both cameras' images of `g` at `pose`, noise seeds `seed` and `seed` + 1.
+std::pair<cv::Mat1b, cv::Mat1b> RenderPair(const Station& st, const PartGeometry& g, const Rigid3d& pose, uint64_t seed) {
+  return {RenderPartImage(st, 0, g, pose, seed, false), RenderPartImage(st, 1, g, pose, seed + 1, false)};
+}
+
 RenderedPart Render(const Station& st, int id, Random& rng, uint64_t seed) {
   RenderedPart r;
   r.part = SampleSimulatedPart(st, id, rng);
-  const Rigid3d& pose = r.part.shots[0].truth.support_from_part;
-  r.left = RenderPartImage(st, 0, r.part.geometry, pose, seed, false);
-  r.right = RenderPartImage(st, 1, r.part.geometry, pose, seed + 1, false);
+  std::tie(r.left, r.right) = RenderPair(st, r.part.geometry, r.part.shots[0].truth.support_from_part, seed);
   return r;
 }
 
@@ -84,8 +88,7 @@ TEST(InspectPart, TiltedPartSideFacesFollowTheSheet) {
   const Eigen::Vector3d part_z = truth.support_from_part.rotation.col(2);
   const double true_tilt = std::acos(part_z.z());
   ASSERT_GT(true_tilt, 0.012);
-  const cv::Mat1b left = RenderPartImage(st, 0, g, truth.support_from_part, 1761, false);
-  const cv::Mat1b right = RenderPartImage(st, 1, g, truth.support_from_part, 1762, false);
+  const auto [left, right] = RenderPair(st, g, truth.support_from_part, 1761);
   InspectionParams params;
   params.thickness_mm = g.SideHeight();
   const InspectionResult res = InspectPart(st.rig, st.plane, left, right, params);
@@ -136,8 +139,7 @@ TEST(InspectPart, CoverageAgainstRotationToTheBaseline) {
   params.thickness_mm = g.SideHeight();
   for (const double rotation : {1.0, 5.0, 30.0}) {
     const PartTruth truth = RestAndPlacePart(g, rotation, {1.0, -0.5});
-    const cv::Mat1b left = RenderPartImage(st, 0, g, truth.support_from_part, 1901, false);
-    const cv::Mat1b right = RenderPartImage(st, 1, g, truth.support_from_part, 1902, false);
+    const auto [left, right] = RenderPair(st, g, truth.support_from_part, 1901);
     const InspectionResult res = InspectPart(st.rig, st.plane, left, right, params);
     std::printf("rotation %.0f: coverage %.3f, completed %d, error %.2f um\n", rotation, res.coverage, res.completed,
                 1000 * (res.values.flatness_mm - truth.flatness_mm));
