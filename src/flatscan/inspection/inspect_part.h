@@ -58,7 +58,7 @@ struct InspectionResult {
   double coverage = 0.0;         // fraction of the outer boundary's length with valid points
   int completed = 0;             // outline points completed from the warp model
   double side_tilt_rad = 0.0;    // estimated tilt of the side faces from the support normal
-  double rim_noise_mm = 0.0;     // robust spread of the smoothed deviations from the warp surface
+  double rim_noise_mm = 0.0;     // mean standard deviation of the smoothed deviations from the warp surface
   int local_deviations = 0;      // rim points whose deviation from the warp surface stands out
   double blur_left_px = 0, blur_right_px = 0;
   std::vector<InspectedPoint> points;  // valid points
