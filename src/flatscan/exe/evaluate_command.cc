@@ -104,12 +104,15 @@ class EvaluateCommand : public Command {
                            {"true_calibration", true_calibration_},
                            {"calibration", CalibrationJson(station)}};
     std::cout << md << std::flush;
+    // Each study's section: on the terminal as it completes, in report.md and in the JSON.
+    auto add_section = [&](const char* key, const std::string& markdown, nlohmann::json section) {
+      std::cout << markdown << "\n" << std::flush;
+      md += markdown + "\n";
+      json[key] = std::move(section);
+    };
     if (repeat_) {
       const RepeatStudy study = RunRepeatStudy(station, repeat_options_, ProgressLogger("repeat: shot"));
-      const std::string part = RepeatMarkdown(study, repeat_options_) + "\n";
-      std::cout << part << std::flush;
-      md += part;
-      json["repeat"] = RepeatJson(study, repeat_options_);
+      add_section("repeat", RepeatMarkdown(study, repeat_options_), RepeatJson(study, repeat_options_));
       WriteImage((root / "repeat_shots.png").string(), RepeatShotsChart(study));
       if (save_worst_ > 0)
         SaveWorstParts(station, study.shots, root / "worst_repeat", [&](int i) { return RenderRepeatShot(station, repeat_options_, i); });
@@ -118,10 +121,7 @@ class EvaluateCommand : public Command {
     }
     if (batch_options_.parts > 0) {
       const BatchStudy study = RunBatchStudy(station, batch_options_, ProgressLogger("batch: part"));
-      const std::string part = BatchMarkdown(study, batch_options_) + "\n";
-      std::cout << part << std::flush;
-      md += part;
-      json["batch"] = BatchJson(study, batch_options_);
+      add_section("batch", BatchMarkdown(study, batch_options_), BatchJson(study, batch_options_));
       WriteImage((root / "batch_measured_vs_true.png").string(), MeasuredVsTrueChart(study, tolerance_));
       if (save_worst_ > 0)
         SaveWorstParts(station, study.parts, root / "worst", [&](int i) { return RenderBatchPart(station, batch_options_, i); });
@@ -130,10 +130,7 @@ class EvaluateCommand : public Command {
     }
     if (rotation) {
       const RotationStudy study = RunRotationStudy(station, rotation_options_, ProgressLogger("rotation: part"));
-      const std::string part = RotationMarkdown(study, rotation_options_) + "\n";
-      std::cout << part << std::flush;
-      md += part;
-      json["rotation"] = RotationJson(study, rotation_options_);
+      add_section("rotation", RotationMarkdown(study, rotation_options_), RotationJson(study, rotation_options_));
       WriteImage((root / "rotation_coverage.png").string(), RotationChart(study));
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
