@@ -41,7 +41,8 @@ std::optional<Eigen::Vector3d> FootprintCentre(const Camera& left, const Support
 // The right silhouette near each match, rectified, in chain order (for the
 // thickness-aware triangulation, which needs the curve off the crossing's row): a
 // window of its contour's rectified chain, which for a closed contour is padded with
-// its own ends so that every window is contiguous.
+// its own ends so that every window is contiguous. The spans stay valid as long as
+// this object (each padded chain is built once, in one allocation).
 class RightSilhouettes {
  public:
   explicit RightSilhouettes(const StereoOutline& outline) : outline_(outline), padded_(outline.right.contours.size()) {}
