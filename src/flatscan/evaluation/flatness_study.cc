@@ -243,11 +243,17 @@ GuardBandSummary ApplyGuardBand(const std::vector<PartMeasurement>& parts, doubl
 
 namespace {
 
+// A part drawn like the lot: its flatness from the lot, its shape, warp shape and
+// placement from the station's scene.
+SimulatedPart DrawLotPart(const Station& one_shot, const LotSpec& lot, double tolerance_mm, int id, Random& rng) {
+  const double target = SampleLotFlatness(lot, tolerance_mm, rng);
+  const PartGeometry geometry = WithFlatness(SamplePartGeometry(one_shot.scene.part, rng), target);
+  return PlaceSimulatedPart(one_shot, id, geometry, rng);
+}
+
 ShotJob BatchJob(const Station& one_shot, const BatchStudyOptions& options, int index) {
   Random rng(Random::DeriveSeed(options.seed, index));
-  const double target = SampleLotFlatness(options.lot, options.tolerance_mm, rng);
-  const PartGeometry geometry = WithFlatness(SamplePartGeometry(one_shot.scene.part, rng), target);
-  SimulatedPart part = PlaceSimulatedPart(one_shot, index, geometry, rng);
+  const SimulatedPart part = DrawLotPart(one_shot, options.lot, options.tolerance_mm, index, rng);
   return {fmt::format("part_{:04d}", index), part.geometry, part.shots.front(), Random::DeriveSeed(options.seed ^ 0xBA7C4ull, index)};
 }
 
@@ -300,9 +306,7 @@ RotationStudy RunRotationStudy(const CalibratedStation& station, const RotationS
     at_angle.scene.part.rotation_deg = {rotation, rotation};
     // The same draws for part k at every angle: only the rotation changes.
     Random rng(Random::DeriveSeed(options.seed ^ 0x507A7Eull, k));
-    const double target = SampleLotFlatness(options.lot, options.tolerance_mm, rng);
-    const PartGeometry geometry = WithFlatness(SamplePartGeometry(at_angle.scene.part, rng), target);
-    SimulatedPart part = PlaceSimulatedPart(at_angle, k, geometry, rng);
+    const SimulatedPart part = DrawLotPart(at_angle, options.lot, options.tolerance_mm, k, rng);
     jobs[j] = {fmt::format("rot{:04.1f}_part_{:02d}", rotation, k), part.geometry, part.shots.front(),
                Random::DeriveSeed(options.seed ^ 0x507A7Eull, j)};
   });

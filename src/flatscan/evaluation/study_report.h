@@ -39,7 +39,7 @@ nlohmann::json RotationJson(const RotationStudy& study, const RotationStudyOptio
 // histogram of the errors (um) with +-U.
 cv::Mat3b RepeatShotsChart(const RepeatStudy& study);
 cv::Mat3b MeasuredVsTrueChart(const BatchStudy& study, double tolerance_mm);
-// Coverage (lowest and median) and the largest |error| against the rotation.
+// Coverage (lowest and median over the parts) against the rotation, with the 0.9 line.
 cv::Mat3b RotationChart(const RotationStudy& study);
 cv::Mat3b ErrorHistogramChart(const std::vector<PartMeasurement>& parts, double uncertainty_mm, const std::string& title);
 

@@ -29,7 +29,7 @@ struct InspectionParams {
   double max_side_tilt_rad = 0.06;
   MatchingParams matching;
   double max_height_mm = 5.0;   // disparity search: parts from -0.5 mm to this above the plane
-  double outlier_radius_mm = 0.25;
+  double outlier_radius_mm = 0.25;  // at least; 2.5 crossing spacings where the boundary runs near the rows
   int outlier_min_neighbours = 3;
   // Rim heights are the fitted warp surface plus the local deviations from it that
   // stand out of their noise (flatness/rim_heights.h): deviations are smoothed along
