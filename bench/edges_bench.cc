@@ -89,7 +89,7 @@ const cv::Mat1b& BacklitFrame() {
     const Station station = BuildStation(ScenePreset("paper"));
     Random rng(7);
     const SimulatedPart part = SampleSimulatedPart(station, 0, rng);
-    return RenderPartImage(station, 0, part.geometry, part.shots[0].truth.support_from_part, 1, false);
+    return RenderPartImage(station, RigSide::kLeft, part.geometry, part.shots[0].truth.support_from_part, 1, false);
   }();
   return frame;
 }

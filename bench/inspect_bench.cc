@@ -39,8 +39,8 @@ struct PaperPair {
   PaperPair() {
     Random rng(7);
     part = SampleSimulatedPart(station, 0, rng);
-    left = RenderPartImage(station, 0, part.geometry, part.shots[0].truth.support_from_part, 1, false);
-    right = RenderPartImage(station, 1, part.geometry, part.shots[0].truth.support_from_part, 2, false);
+    left = RenderPartImage(station, RigSide::kLeft, part.geometry, part.shots[0].truth.support_from_part, 1, false);
+    right = RenderPartImage(station, RigSide::kRight, part.geometry, part.shots[0].truth.support_from_part, 2, false);
   }
 };
 

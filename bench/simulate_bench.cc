@@ -24,7 +24,7 @@ void BM_RenderPaperPartPair(benchmark::State& state) {
   PaperPart scene;
   uint64_t seed = 1;
   for (auto _ : state) {
-    for (int camera = 0; camera < 2; ++camera) {
+    for (const RigSide camera : {RigSide::kLeft, RigSide::kRight}) {
       cv::Mat1b image = RenderPartImage(scene.station, camera, scene.part.geometry,
                                         scene.part.shots[0].truth.support_from_part, seed++, false);
       benchmark::DoNotOptimize(image.data);
@@ -36,8 +36,8 @@ BENCHMARK(BM_RenderPaperPartPair)->Unit(benchmark::kMillisecond)->UseRealTime();
 void BM_EncodePaperPartPairPng(benchmark::State& state) {
   PaperPart scene;
   const cv::Mat1b images[2] = {
-      RenderPartImage(scene.station, 0, scene.part.geometry, scene.part.shots[0].truth.support_from_part, 1, false),
-      RenderPartImage(scene.station, 1, scene.part.geometry, scene.part.shots[0].truth.support_from_part, 2, false)};
+      RenderPartImage(scene.station, RigSide::kLeft, scene.part.geometry, scene.part.shots[0].truth.support_from_part, 1, false),
+      RenderPartImage(scene.station, RigSide::kRight, scene.part.geometry, scene.part.shots[0].truth.support_from_part, 2, false)};
   std::vector<uchar> buffer;
   for (auto _ : state)
     for (const cv::Mat1b& image : images) {

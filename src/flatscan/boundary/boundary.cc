@@ -358,7 +358,8 @@ std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMa
       const int j = (i + 1) % n;
       const Eigen::Vector2d& a = mapped[i];
       const Eigen::Vector2d& b = mapped[j];
-      if (a.y() == b.y()) continue;
+      // A point the map cannot take (beyond the lens model's fold) cuts its segments.
+      if (a.y() == b.y() || !a.allFinite() || !b.allFinite()) continue;
       const int r0 = static_cast<int>(std::floor(std::min(a.y(), b.y()))) + 1;
       const int r1 = static_cast<int>(std::floor(std::max(a.y(), b.y())));
       if (r1 < r0) continue;

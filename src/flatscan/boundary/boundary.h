@@ -73,7 +73,8 @@ BoundaryResult DetectBoundary(const cv::Mat& image, const BoundaryOptions& optio
 // (identity: the image rows; or rectified rows). Consecutive chain points are mapped,
 // and every integer row y = k between two of them gets a crossing by linear
 // interpolation along the chain (paper section 2.2.1); normals are interpolated and
-// mapped through the local Jacobian of the map.
+// mapped through the local Jacobian of the map. A segment with an end the map takes to
+// NaN gives no crossing.
 struct RowCrossing {
   double x = 0;         // in the mapped frame
   int row = 0;          // integer row in the mapped frame

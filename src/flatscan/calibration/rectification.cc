@@ -14,10 +14,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A Newton solution is accepted when re-distorting it lands this close to the raw
-// pixel (Newton converges to ~1e-12 px wherever the model is invertible).
-constexpr double kUndistortResidualPx = 1e-6;
-
 Eigen::Matrix3d ToEigen3x3(const cv::Mat& m, const char* what) {
   FLATSCAN_CHECK(m.rows == 3 && m.cols >= 3);
   cv::Mat m64;
@@ -28,43 +24,42 @@ Eigen::Matrix3d ToEigen3x3(const cv::Mat& m, const char* what) {
   return out;
 }
 
-// Determinant of d(distorted)/d(undistorted) by central differences. It is positive
-// wherever the lens model is one-to-one; beyond the radius where the distortion folds
-// back, a Newton solution can satisfy the equation but is not the physical ray.
-double DistortionJacobianDeterminant(const Camera& camera, const Eigen::Vector2d& xy) {
-  const double h = 1e-6;
-  const Eigen::Vector2d ex(h, 0), ey(0, h);
-  const Eigen::Vector2d dx = (camera.Distort(xy + ex) - camera.Distort(xy - ex)) / (2 * h);
-  const Eigen::Vector2d dy = (camera.Distort(xy + ey) - camera.Distort(xy - ey)) / (2 * h);
-  return dx.x() * dy.y() - dx.y() * dy.x();
-}
-
 }  // namespace
 
+bool IsRectifiedCameraMatrix(const Eigen::Matrix3d& k) {
+  return k(0, 0) > 0 && std::abs(k(1, 1) - k(0, 0)) <= 1e-9 * k(0, 0) && k(0, 1) == 0 && k(1, 0) == 0 &&
+         k.row(2) == Eigen::RowVector3d(0, 0, 1);
+}
+
 PointRectifier::PointRectifier(const StereoRig& rig, RigSide side)
-    : camera_(side == RigSide::kLeft ? rig.left : rig.right) {
+    : camera_(rig.camera(side)) {
   FLATSCAN_CHECK(!rig.rectification.empty());
   const Rectification& r = rig.rectification;
   rectified_from_camera_ = ToEigen3x3(side == RigSide::kLeft ? r.R1 : r.R2, "R1/R2");
-  rectified_camera_matrix_ = ToEigen3x3(side == RigSide::kLeft ? r.P1 : r.P2, "P1/P2");
-  inverse_rectified_matrix_ = rectified_camera_matrix_.inverse();
+  const Eigen::Matrix3d k = ToEigen3x3(side == RigSide::kLeft ? r.P1 : r.P2, "P1/P2");
+  // cv::stereoRectify's form (checked with a message when a rig file is read).
+  FLATSCAN_CHECK(IsRectifiedCameraMatrix(k));
+  f_ = k(0, 0);
+  cx_ = k(0, 2);
+  cy_ = k(1, 2);
+}
+
+Eigen::Matrix3d PointRectifier::RectifiedCameraMatrix() const {
+  Eigen::Matrix3d k;
+  k << f_, 0, cx_, 0, f_, cy_, 0, 0, 1;
+  return k;
 }
 
 Eigen::Vector2d PointRectifier::RawToRectified(const Eigen::Vector2d& raw) const {
   const Eigen::Vector2d xy = camera_.PixelToNormalized(raw);
-  if (!xy.allFinite() || (camera_.NormalizedToPixel(xy) - raw).norm() > kUndistortResidualPx ||
-      DistortionJacobianDeterminant(camera_, xy) <= 0) {
-    return {kNaN, kNaN};
-  }
   const Eigen::Vector3d ray = rectified_from_camera_ * Eigen::Vector3d(xy.x(), xy.y(), 1.0);
-  if (ray.z() <= 0) return {kNaN, kNaN};
-  const Eigen::Vector3d p = rectified_camera_matrix_ * ray;
-  return {p.x() / p.z(), p.y() / p.z()};
+  if (!(ray.z() > 0)) return {kNaN, kNaN};  // also NaN where the lens model is not invertible
+  return {f_ * ray.x() / ray.z() + cx_, f_ * ray.y() / ray.z() + cy_};
 }
 
 Eigen::Vector2d PointRectifier::RectifiedToRaw(const Eigen::Vector2d& rectified) const {
   const Eigen::Vector3d ray = rectified_from_camera_.transpose() *
-                              (inverse_rectified_matrix_ * Eigen::Vector3d(rectified.x(), rectified.y(), 1.0));
+                              Eigen::Vector3d((rectified.x() - cx_) / f_, (rectified.y() - cy_) / f_, 1.0);
   if (!(ray.z() > 0)) return {kNaN, kNaN};
   return camera_.NormalizedToPixel({ray.x() / ray.z(), ray.y() / ray.z()});
 }
@@ -83,14 +78,22 @@ std::vector<Eigen::Vector2d> PointRectifier::RectifiedToRaw(const std::vector<Ei
   return out;
 }
 
-std::vector<Eigen::Vector2d> RawToRectified(const StereoRig& rig, RigSide side,
-                                            const std::vector<Eigen::Vector2d>& raw) {
-  return PointRectifier(rig, side).RawToRectified(raw);
+double RectifiedStereo::Disparity(const Eigen::Vector3d& x) const {
+  return (f * x.x() / x.z() + cx1) - (f * (x.x() + tx) / x.z() + cx2);
 }
 
-std::vector<Eigen::Vector2d> RectifiedToRaw(const StereoRig& rig, RigSide side,
-                                            const std::vector<Eigen::Vector2d>& rectified) {
-  return PointRectifier(rig, side).RectifiedToRaw(rectified);
+StereoRectification::StereoRectification(const StereoRig& rig)
+    : left_(rig, RigSide::kLeft), right_(rig, RigSide::kRight) {
+  const Rectification& r = rig.rectification;
+  const Eigen::Matrix3d k1 = left_.RectifiedCameraMatrix(), k2 = right_.RectifiedCameraMatrix();
+  FLATSCAN_CHECK(k1(0, 0) == k2(0, 0));
+  stereo_.f = k1(0, 0);
+  stereo_.cx1 = k1(0, 2);
+  stereo_.cy = k1(1, 2);
+  stereo_.cx2 = k2(0, 2);
+  stereo_.tx = r.P2.at<double>(0, 3) / r.P2.at<double>(0, 0);
+  FLATSCAN_CHECK(std::abs(r.P2.at<double>(1, 3)) < 1e-9 * std::abs(r.P2.at<double>(0, 3)));  // horizontal rig
+  stereo_.rect1_from_cam1 = left_.RectifiedFromCamera();
 }
 
 RowSpacing RectifiedRowSpacing(const StereoRig& rig, RigSide side) {

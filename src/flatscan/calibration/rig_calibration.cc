@@ -214,18 +214,17 @@ Eigen::Matrix3d FundamentalMatrix(const StereoRig& rig) {
   return k2.inverse().transpose() * Skew(pose.translation) * pose.rotation * k1.inverse();
 }
 
-// Undistorted pinhole pixel of a raw pixel, with the exact (Newton) undistortion.
-Eigen::Vector3d UndistortedPixel(const Camera& camera, const cv::Point2f& raw) {
-  const Eigen::Vector2d xy = camera.PixelToNormalized(Eigen::Vector2d(raw.x, raw.y));
-  return {camera.fx * xy.x() + camera.cx, camera.fy * xy.y() + camera.cy, 1.0};
+// Ideal (undistorted) pixel of a raw corner, homogeneous.
+Eigen::Vector3d IdealPixel(const Camera& camera, const cv::Point2f& raw) {
+  return camera.PixelToIdeal(Eigen::Vector2d(raw.x, raw.y)).homogeneous();
 }
 
 // Sum over the corners of one pair of d(x1, line of x2) + d(x2, line of x1).
 double EpipolarErrorSum(const StereoRig& rig, const Eigen::Matrix3d& f, const BoardViewPair& view) {
   double sum = 0;
   for (size_t k = 0; k < view.left.size(); ++k) {
-    const Eigen::Vector3d x1 = UndistortedPixel(rig.left, view.left[k]);
-    const Eigen::Vector3d x2 = UndistortedPixel(rig.right, view.right[k]);
+    const Eigen::Vector3d x1 = IdealPixel(rig.left, view.left[k]);
+    const Eigen::Vector3d x2 = IdealPixel(rig.right, view.right[k]);
     const Eigen::Vector3d line_in_2 = f * x1, line_in_1 = f.transpose() * x2;
     sum += std::abs(line_in_2.dot(x2)) / line_in_2.head<2>().norm() +
            std::abs(line_in_1.dot(x1)) / line_in_1.head<2>().norm();
@@ -269,17 +268,6 @@ struct PairDetection {
 };
 
 }  // namespace
-
-std::string DistortionModelName(DistortionModel model) {
-  return model == DistortionModel::kRational ? "rational" : "standard";
-}
-
-DistortionModel ParseDistortionModel(const std::string& name) {
-  if (name == "standard") return DistortionModel::kStandard;
-  if (name == "rational") return DistortionModel::kRational;
-  ThrowInputError("unknown distortion model '{}' (expected standard: k1 k2 p1 p2 k3, or rational: k1..k6 p1 p2)",
-                  name);
-}
 
 bool RefineChessboardCorners(const cv::Mat& gray, const ChessboardSpec& board, std::vector<cv::Point2f>& corners,
                              std::string* failure) {
@@ -379,7 +367,7 @@ bool AlignCornerOrder(const std::vector<cv::Point2f>& left, std::vector<cv::Poin
   return true;
 }
 
-std::vector<fs::path> ExpandGlob(const std::string& pattern, const std::string& option) {
+std::vector<fs::path> ExpandGlob(const std::string& pattern) {
   glob_t matches{};
   const int status = ::glob(pattern.c_str(), 0, nullptr, &matches);
   std::vector<fs::path> out;
@@ -391,33 +379,33 @@ std::vector<fs::path> ExpandGlob(const std::string& pattern, const std::string& 
     }
   }
   globfree(&matches);
-  if (out.empty()) {
-    if (status != 0 && status != GLOB_NOMATCH)
-      ThrowInputError("{} '{}': cannot list the matching files (read error)", option, pattern);
-    ThrowInputError("{} '{}': no file matches (expected a file name or a pattern such as 'calib/left*.png')", option,
-                    pattern);
-  }
+  if (out.empty() && status != 0 && status != GLOB_NOMATCH)
+    ThrowInputError("'{}': cannot list the matching files (read error)", pattern);
   std::sort(out.begin(), out.end());
   return out;
 }
 
 std::vector<ImagePairFiles> PairImagesByName(const std::vector<std::string>& left_patterns,
                                              const std::vector<std::string>& right_patterns) {
-  const auto expand = [](const std::vector<std::string>& patterns, const std::string& option) {
-    if (patterns.empty()) ThrowInputError("{}: expected at least one image file or pattern", option);
+  const auto expand = [](const std::vector<std::string>& patterns, const std::string& field) {
+    if (patterns.empty()) ThrowFieldError(field, "expected at least one image file or pattern");
     std::set<fs::path> files;
-    for (const std::string& p : patterns)
-      for (const fs::path& f : ExpandGlob(p, option)) files.insert(f);
+    for (const std::string& p : patterns) {
+      const std::vector<fs::path> matched = ExpandGlob(p);
+      if (matched.empty())
+        ThrowFieldError(field, "'{}': no file matches (expected a file name or a pattern such as 'calib/left*.png')", p);
+      files.insert(matched.begin(), matched.end());
+    }
     return std::vector<fs::path>(files.begin(), files.end());
   };
-  const std::vector<fs::path> left = expand(left_patterns, "--left"), right = expand(right_patterns, "--right");
+  const std::vector<fs::path> left = expand(left_patterns, "left"), right = expand(right_patterns, "right");
   if (left.size() != right.size()) {
     const bool more_left = left.size() > right.size();
     const fs::path& extra = more_left ? left[right.size()] : right[left.size()];
-    ThrowInputError(
-        "--left matched {} images but --right matched {}; pairs are made by sorted name, so both must match the same "
-        "number (first image without a partner: '{}')",
-        left.size(), right.size(), extra.string());
+    ThrowFieldError("left",
+                    "matched {} images but the right images matched {}; pairs are made by sorted name, so both must "
+                    "match the same number (first image without a partner: '{}')",
+                    left.size(), right.size(), extra.string());
   }
   std::vector<ImagePairFiles> pairs;
   for (size_t i = 0; i < left.size(); ++i) pairs.push_back({left[i], right[i]});
@@ -427,8 +415,8 @@ std::vector<ImagePairFiles> PairImagesByName(const std::vector<std::string>& lef
 RigCalibrationReport CalibrateRig(const std::vector<ImagePairFiles>& pairs, const RigCalibrationOptions& options) {
   const ChessboardSpec& board = options.board;
   if (board.columns < 3 || board.rows < 3)
-    ThrowInputError("board {}x{}: expected at least 3x3 inner corners", board.columns, board.rows);
-  if (!(board.square_mm > 0)) ThrowInputError("board square size must be > 0 mm, got {}", board.square_mm);
+    ThrowFieldError("board", "{}x{}: expected at least 3x3 inner corners", board.columns, board.rows);
+  if (!(board.square_mm > 0)) ThrowFieldError("board.square_mm", "expected the square side > 0 mm, got {}", board.square_mm);
   if (pairs.empty()) ThrowInputError("no image pairs given");
 
   // Detection, pairs in parallel (each reads its own two images).
@@ -466,10 +454,10 @@ RigCalibrationReport CalibrateRig(const std::vector<ImagePairFiles>& pairs, cons
   for (const PairDetection& d : detections)
     if (d.left.found && d.right.found) ++size_votes[{d.size.width, d.size.height}];
   if (size_votes.empty()) {
-    ThrowInputError(
-        "no {}x{} chessboard (inner corners) found in both images of any of the {} pairs (first pair: '{}', '{}'; "
-        "expected --board to give the inner corners as columns x rows, as OpenCV counts them)",
-        board.columns, board.rows, pairs.size(), pairs.front().left.string(), pairs.front().right.string());
+    ThrowFieldError("board",
+                    "no {}x{} chessboard (inner corners) found in both images of any of the {} pairs (first pair: "
+                    "'{}', '{}'; expected the board's inner corners as columns x rows, as OpenCV counts them)",
+                    board.columns, board.rows, pairs.size(), pairs.front().left.string(), pairs.front().right.string());
   }
   cv::Size image_size;
   int best_votes = 0;

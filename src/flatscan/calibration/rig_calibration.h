@@ -24,6 +24,7 @@
 #include <opencv2/core.hpp>
 
 #include "flatscan/calibration/stereo_rig.h"
+#include "flatscan/geometry/camera.h"
 
 namespace flatscan {
 
@@ -35,14 +36,6 @@ struct ChessboardSpec {
   double square_mm = 1.0;
   cv::Size PatternSize() const { return {columns, rows}; }
 };
-
-enum class DistortionModel {
-  kStandard,  // k1 k2 p1 p2 k3: most lenses, and the simulator's
-  kRational,  // k1 k2 p1 p2 k3 k4 k5 k6: strongly distorting wide-angle lenses
-};
-// "standard" / "rational"; Parse throws InputError naming the accepted values.
-std::string DistortionModelName(DistortionModel model);
-DistortionModel ParseDistortionModel(const std::string& name);
 
 // The inner corners of a board in one image, row by row (`columns` corners per row),
 // in OpenCV's order, refined to sub-pixel. `failure` says why when not found, to be
@@ -68,12 +61,13 @@ struct ImagePairFiles {
 };
 
 // Files matching a shell-style pattern (*, ?, [...] in the file name and folders),
-// sorted by name. A plain path matches itself if it exists. Throws InputError
-// "<option> '<pattern>': no file matches" when nothing matches.
-std::vector<std::filesystem::path> ExpandGlob(const std::string& pattern, const std::string& option);
+// sorted by name; empty when nothing matches. A plain path matches itself if it exists.
+// Throws InputError when the folders cannot be read.
+std::vector<std::filesystem::path> ExpandGlob(const std::string& pattern);
 
 // The union of the files matched by each pattern, sorted by name, paired index by
-// index. Throws InputError when the two sides have different counts.
+// index. Throws InputError (field "left" or "right") when a pattern matches nothing or
+// the two sides have different counts.
 std::vector<ImagePairFiles> PairImagesByName(const std::vector<std::string>& left_patterns,
                                              const std::vector<std::string>& right_patterns);
 

@@ -221,8 +221,8 @@ void CompareCornerAccuracy(const SimulatedCalibration& sim, int views, double ma
     Eigen::Matrix3d rotation;
     Eigen::Vector3d translation;
     for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) rotation(i, j) = view["cam1_from_board"]["R"][i][j];
-      translation(i) = view["cam1_from_board"]["t"][i];
+      for (int j = 0; j < 3; ++j) rotation(i, j) = view["cam1_from_board"]["rotation"][i][j];
+      translation(i) = view["cam1_from_board"]["translation_mm"][i];
     }
     // Board frame: origin at the first square's outer corner, so inner corner (i, j)
     // is at ((i + 1) s, (j + 1) s, 0).
@@ -325,21 +325,22 @@ void WriteBlankImage(const fs::path& path, cv::Size size) {
   ASSERT_TRUE(cv::imwrite(path.string(), cv::Mat1b(size, 128)));
 }
 
-TEST(RigCalibration, ExpandGlobSortsByNameAndNamesTheOptionWhenNothingMatches) {
+TEST(RigCalibration, ExpandGlobSortsByNameAndPairingNamesTheFieldWhenNothingMatches) {
   ScratchDir dir("rig-calibration-glob");
   for (const char* name : {"b_2.png", "b_10.png", "a.png", "b_1.png"}) std::ofstream(dir.path() / name) << "x";
-  const std::vector<fs::path> files = ExpandGlob((dir.path() / "b_*.png").string(), "--left");
+  const std::vector<fs::path> files = ExpandGlob((dir.path() / "b_*.png").string());
   ASSERT_EQ(files.size(), 3u);
   EXPECT_EQ(files[0].filename(), "b_1.png");
   EXPECT_EQ(files[1].filename(), "b_10.png");  // by name, as the shell sorts
   EXPECT_EQ(files[2].filename(), "b_2.png");
+  EXPECT_TRUE(ExpandGlob((dir.path() / "c_*.png").string()).empty());
   try {
-    ExpandGlob((dir.path() / "c_*.png").string(), "--right");
+    PairImagesByName({(dir.path() / "b_*.png").string()}, {(dir.path() / "c_*.png").string()});
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_TRUE(Contains(e.what(), "--right")) << e.what();
-    EXPECT_TRUE(Contains(e.what(), "c_*.png")) << e.what();
-    EXPECT_TRUE(Contains(e.what(), "no file matches")) << e.what();
+    EXPECT_EQ(e.field(), "right");
+    EXPECT_EQ(e.detail(), "'" + (dir.path() / "c_*.png").string() +
+                              "': no file matches (expected a file name or a pattern such as 'calib/left*.png')");
   }
 }
 

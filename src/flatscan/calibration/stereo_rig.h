@@ -10,6 +10,9 @@
 
 namespace flatscan {
 
+// The two cameras of a rig: camera 1 (left, the reference frame) and camera 2 (right).
+enum class RigSide { kLeft, kRight };
+
 struct Rectification {
   cv::Mat R1, R2;  // 3x3: rectified_cam_k_from_cam_k
   cv::Mat P1, P2;  // 3x4 projection matrices in the rectified frames
@@ -26,6 +29,7 @@ struct StereoRig {
   // Fills `rectification` from the cameras and the relative pose.
   void ComputeRectification();
   double BaselineMm() const { return cam2_from_cam1.translation.norm(); }
+  const Camera& camera(RigSide side) const { return side == RigSide::kLeft ? left : right; }
 };
 
 }  // namespace flatscan

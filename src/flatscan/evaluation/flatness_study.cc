@@ -5,11 +5,15 @@
 #include <ctime>
 #include <cmath>
 #include <mutex>
+#include <numeric>
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
+#include "flatscan/flatness/verdict.h"
+#include "flatscan/io/image_io.h"
 #include "flatscan/simulation/dataset.h"
+#include "flatscan/simulation/truth_file.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -33,8 +37,30 @@ struct ShotJob {
 
 std::array<cv::Mat1b, 2> RenderShot(const CalibratedStation& station, const ShotJob& job) {
   const Rigid3d& pose = job.shot.truth.support_from_part;
-  return {RenderPartImage(station.truth, 0, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false),
-          RenderPartImage(station.truth, 1, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false)};
+  return {RenderPartImage(station.truth, RigSide::kLeft, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false),
+          RenderPartImage(station.truth, RigSide::kRight, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false)};
+}
+
+// Inspects one pair of the part `m` describes (its truth filled in) and records the
+// measurement and its verdict; a part that cannot be measured keeps the reason.
+PartMeasurement MeasurePair(const CalibratedStation& station, const cv::Mat1b& left, const cv::Mat1b& right,
+                            const std::string& left_name, const std::string& right_name, PartMeasurement m,
+                            const StudyOptions& options) {
+  InspectionParams params = options.inspection;
+  params.thickness_mm = m.thickness_mm;
+  try {
+    const double start = ThreadCpuMs();
+    const InspectionResult result = InspectPart(station.rig(), station.plane(), left, right, params, left_name, right_name);
+    m.inspect_ms = ThreadCpuMs() - start;
+    m.measured = true;
+    m.values = result.values;
+    m.coverage = result.coverage;
+    m.valid_points = result.valid;
+    m.pass = Judge(result.values.flatness_mm, {options.tolerance_mm}).pass();
+  } catch (const InputError& e) {
+    m.error = e.what();
+  }
+  return m;
 }
 
 PartMeasurement MeasureShot(const CalibratedStation& station, const ShotJob& job, const StudyOptions& options) {
@@ -46,23 +72,7 @@ PartMeasurement MeasureShot(const CalibratedStation& station, const ShotJob& job
   m.thickness_mm = job.geometry.SideHeight();
   m.rotation_deg = job.shot.rotation_deg;
   const auto [left, right] = RenderShot(station, job);
-  InspectionParams params = options.inspection;
-  params.thickness_mm = m.thickness_mm;
-  params.tolerance_mm = options.tolerance_mm;
-  try {
-    const double start = ThreadCpuMs();
-    const InspectionResult result = InspectPart(station.rig(), station.plane(), left, right, params,
-                                                job.id + " left", job.id + " right");
-    m.inspect_ms = ThreadCpuMs() - start;
-    m.measured = true;
-    m.values = result.values;
-    m.coverage = result.coverage;
-    m.valid_points = result.valid;
-    m.pass = result.pass;
-  } catch (const InputError& e) {
-    m.error = e.what();
-  }
-  return m;
+  return MeasurePair(station, left, right, job.id + " left", job.id + " right", std::move(m), options);
 }
 
 // Measures every job in parallel; the results keep the jobs' order.
@@ -166,8 +176,9 @@ ErrorSummary SummarizeErrors(std::vector<double> errors) {
 
 RepeatStudy RunRepeatStudy(const CalibratedStation& station, const RepeatStudyOptions& options,
                            const StudyProgress& progress) {
-  if (options.shots < 2) ThrowInputError("--shots: expected at least 2 shots, got {}", options.shots);
-  if (!(options.flatness_mm > 0)) ThrowInputError("--true-flatness: expected a value > 0 mm, got {}", options.flatness_mm);
+  if (options.shots < 2) ThrowFieldError("repeat.shots", "expected at least 2 shots, got {}", options.shots);
+  if (!(options.flatness_mm > 0))
+    ThrowFieldError("repeat.flatness_mm", "expected a value > 0 mm, got {}", options.flatness_mm);
   const std::vector<ShotJob> jobs = RepeatJobs(station.truth, options);
   RepeatStudy study;
   study.geometry = jobs.front().geometry;
@@ -191,10 +202,10 @@ double LotMedianMm(const LotSpec& lot, double tolerance_mm) {
 
 void CheckLotSpec(const LotSpec& lot, double tolerance_mm) {
   if (!(lot.beyond_fraction > 0 && lot.beyond_fraction < 1))
-    ThrowInputError("--beyond: expected a fraction between 0 and 1, got {}", lot.beyond_fraction);
-  if (!(lot.log_spread > 0)) ThrowInputError("--lot-spread: expected a value > 0, got {}", lot.log_spread);
+    ThrowFieldError("lot.beyond_fraction", "expected a fraction between 0 and 1, got {}", lot.beyond_fraction);
+  if (!(lot.log_spread > 0)) ThrowFieldError("lot.log_spread", "expected a value > 0, got {}", lot.log_spread);
   if (!(lot.min_mm < tolerance_mm && tolerance_mm < lot.max_mm))
-    ThrowInputError("--tolerance: expected a value between {} and {} mm, got {}", lot.min_mm, lot.max_mm, tolerance_mm);
+    ThrowFieldError("tolerance_mm", "expected a value between {} and {} mm, got {}", lot.min_mm, lot.max_mm, tolerance_mm);
 }
 
 double SampleLotFlatness(const LotSpec& lot, double tolerance_mm, Random& rng) {
@@ -213,7 +224,7 @@ Classification Classify(const std::vector<PartMeasurement>& parts, double tolera
       ++c.unmeasured;
       continue;
     }
-    const bool unqualified = p.true_flatness_mm > tolerance_mm, detected = !p.pass;
+    const bool unqualified = !Judge(p.true_flatness_mm, {tolerance_mm}).pass(), detected = !p.pass;
     (unqualified ? (detected ? c.tp : c.fn) : (detected ? c.fp : c.tn))++;
   }
   const auto ratio = [](int a, int b) { return b > 0 ? static_cast<double>(a) / b : 0.0; };
@@ -228,8 +239,8 @@ GuardBandSummary ApplyGuardBand(const std::vector<PartMeasurement>& parts, doubl
   g.uncertainty_mm = uncertainty_mm;
   for (const PartMeasurement& p : parts) {
     if (!p.measured) continue;
-    const bool wrong = p.pass == (p.true_flatness_mm > tolerance_mm);
-    if (std::abs(p.values.flatness_mm - tolerance_mm) <= uncertainty_mm) {
+    const bool wrong = p.pass != Judge(p.true_flatness_mm, {tolerance_mm}).pass();
+    if (Judge(p.values.flatness_mm, {tolerance_mm, uncertainty_mm}).marginal) {
       ++g.marginal;
       g.wrong_marginal += wrong;
     } else {
@@ -265,7 +276,7 @@ RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyO
 
 BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,
                          const StudyProgress& progress) {
-  if (options.parts < 1) ThrowInputError("--batch: expected at least 1 part, got {}", options.parts);
+  if (options.parts < 1) ThrowFieldError("batch.parts", "expected at least 1 part, got {}", options.parts);
   const Station one_shot = WithShots(station.truth, 1);
   std::vector<ShotJob> jobs(options.parts);
   tbb::parallel_for(0, options.parts, [&](int i) { jobs[i] = BatchJob(one_shot, options, i); });
@@ -282,7 +293,7 @@ BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptio
   study.guard_band = ApplyGuardBand(study.parts, options.tolerance_mm, study.uncertainty_mm);
   int beyond = 0, near = 0;
   for (const PartMeasurement& p : study.parts) {
-    beyond += p.true_flatness_mm > options.tolerance_mm;
+    beyond += !Judge(p.true_flatness_mm, {options.tolerance_mm}).pass();
     near += std::abs(p.true_flatness_mm - options.tolerance_mm) <= 0.010;
   }
   study.true_beyond_fraction = static_cast<double>(beyond) / options.parts;
@@ -293,10 +304,10 @@ BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptio
 
 RotationStudy RunRotationStudy(const CalibratedStation& station, const RotationStudyOptions& options,
                                const StudyProgress& progress) {
-  if (options.parts < 1) ThrowInputError("--rotation-parts: expected at least 1 part, got {}", options.parts);
-  if (!(options.step_deg > 0) || !(options.max_deg >= 0))
-    ThrowInputError("--rotation-step: expected a positive step and a non-negative largest angle, got {} and {}",
-                    options.step_deg, options.max_deg);
+  if (options.parts < 1) ThrowFieldError("rotation.parts", "expected at least 1 part, got {}", options.parts);
+  if (!(options.step_deg > 0)) ThrowFieldError("rotation.step_deg", "expected a positive step, got {}", options.step_deg);
+  if (!(options.max_deg >= 0))
+    ThrowFieldError("rotation.max_deg", "expected a non-negative largest angle, got {}", options.max_deg);
   const int angles = static_cast<int>(std::floor(options.max_deg / options.step_deg + 1e-9)) + 1;
   std::vector<ShotJob> jobs(static_cast<size_t>(angles) * options.parts);
   tbb::parallel_for(0, static_cast<int>(jobs.size()), [&](int j) {
@@ -328,6 +339,55 @@ RotationStudy RunRotationStudy(const CalibratedStation& station, const RotationS
     study.rows.push_back(std::move(row));
   }
   return study;
+}
+
+DatasetStudy RunDatasetStudy(const CalibratedStation& station, const std::filesystem::path& dataset_dir,
+                             const StudyOptions& options, const StudyProgress& progress) {
+  const std::vector<TruthPart> truth = ReadTruthFile(dataset_dir);
+  DatasetStudy study;
+  study.parts.resize(truth.size());
+  std::mutex mutex;
+  int done = 0;
+  tbb::parallel_for(size_t{0}, truth.size(), [&](size_t i) {
+    const TruthPart& t = truth[i];
+    PartMeasurement m;
+    m.id = t.id;
+    m.true_flatness_mm = t.flatness_mm;
+    m.true_lsq_pv_mm = t.lsq_pv_mm;
+    m.true_minzone_mm = t.minzone_mm;
+    m.thickness_mm = t.side_height_mm;
+    m.rotation_deg = t.shots.front().rotation_deg;
+    try {
+      const cv::Mat1b left = ReadGreyImage(t.shots.front().left), right = ReadGreyImage(t.shots.front().right);
+      m = MeasurePair(station, left, right, t.shots.front().left, t.shots.front().right, std::move(m), options);
+    } catch (const InputError& e) {
+      m.error = e.what();
+    }
+    study.parts[i] = std::move(m);
+    const std::lock_guard<std::mutex> lock(mutex);
+    ++done;
+    if (progress) progress(done, static_cast<int>(truth.size()), study.parts[i]);
+  });
+  study.errors = SummarizeErrors(MeasuredErrors(study.parts));
+  for (const PartMeasurement& p : study.parts)
+    if (p.measured) study.agree += p.pass == Judge(p.true_flatness_mm, {options.tolerance_mm}).pass();
+  study.median_inspect_ms = MedianInspectMs(study.parts);
+  return study;
+}
+
+void SaveWorstParts(const CalibratedStation& station, const std::vector<PartMeasurement>& parts, int count,
+                    uint64_t seed, const std::filesystem::path& dir, const std::function<RenderedPart(int)>& render) {
+  std::vector<int> order(parts.size());
+  std::iota(order.begin(), order.end(), 0);
+  const auto badness = [&](int i) { return parts[i].measured ? std::abs(parts[i].ErrorMm()) : 1e9; };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return badness(a) > badness(b); });
+  order.resize(std::min<size_t>(order.size(), std::max(count, 0)));
+  std::vector<PartPair> pairs;
+  for (int i : order) {
+    RenderedPart r = render(i);
+    pairs.push_back({parts[i].id, std::move(r.part), std::move(r.left), std::move(r.right)});
+  }
+  WritePartPairs(dir, station.truth, seed, pairs);
 }
 
 }  // namespace flatscan

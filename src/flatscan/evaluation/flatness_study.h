@@ -11,11 +11,13 @@
 // Parts are rendered in memory (never written) and measured in parallel; every
 // random choice derives from the seed and the part's index, so results do not depend
 // on the number of threads.
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "flatscan/evaluation/simulated_station.h"
+#include "flatscan/flatness/verdict.h"
 #include "flatscan/inspection/inspect_part.h"
 #include "flatscan/simulation/dataset.h"
 #include "flatscan/simulation/part_model.h"
@@ -34,7 +36,7 @@ struct PartMeasurement {
   double coverage = 0;
   int valid_points = 0;
   double inspect_ms = 0;     // InspectPart on the decoded pair (CPU time of its one thread)
-  bool pass = false;         // measured verdict
+  bool pass = false;         // the verdict on the measured flatness (Judge)
   double ErrorMm() const { return values.flatness_mm - true_flatness_mm; }
 };
 
@@ -42,9 +44,9 @@ struct PartMeasurement {
 using StudyProgress = std::function<void(int, int, const PartMeasurement&)>;
 
 struct StudyOptions {
-  double tolerance_mm = 0.1;
+  double tolerance_mm = FlatnessSpec::kDefaultToleranceMm;  // verdicts: flatness/verdict.h
   uint64_t seed = 1;
-  InspectionParams inspection;  // thickness_mm and tolerance_mm are set per part
+  InspectionParams inspection;  // thickness_mm is set per part
 };
 
 // --- repeat study (Table 1) ---
@@ -92,8 +94,8 @@ struct LotSpec {
   double log_spread = 0.8;
   double min_mm = 0.005, max_mm = 0.6;
 };
-// Throws InputError unless 0 < beyond_fraction < 1, log_spread > 0 and
-// min_mm < tolerance_mm < max_mm.
+// Throws InputError (fields lot.beyond_fraction, lot.log_spread, tolerance_mm) unless
+// 0 < beyond_fraction < 1, log_spread > 0 and min_mm < tolerance_mm < max_mm.
 void CheckLotSpec(const LotSpec& lot, double tolerance_mm);
 double LotMedianMm(const LotSpec& lot, double tolerance_mm);
 double SampleLotFlatness(const LotSpec& lot, double tolerance_mm, Random& rng);
@@ -166,5 +168,23 @@ struct RotationStudy {
 
 RotationStudy RunRotationStudy(const CalibratedStation& station, const RotationStudyOptions& options,
                                const StudyProgress& progress = {});
+
+// --- a simulated dataset on disk (the demo) ---
+// Every part's first shot in a dataset folder (simulation/truth_file.h) inspected with
+// the calibrated station, against its truth.
+struct DatasetStudy {
+  std::vector<PartMeasurement> parts;  // in truth.json's order
+  ErrorSummary errors;
+  int agree = 0;                       // measured parts whose verdict is the truth's
+  double median_inspect_ms = 0;
+};
+DatasetStudy RunDatasetStudy(const CalibratedStation& station, const std::filesystem::path& dataset_dir,
+                             const StudyOptions& options, const StudyProgress& progress = {});
+
+// The `count` parts of a study with the largest |error| (those not measured first),
+// rendered again by `render` (RenderBatchPart, RenderRepeatShot), written into `dir`
+// as pairs to inspect again (simulation/truth_file.h, WritePartPairs).
+void SaveWorstParts(const CalibratedStation& station, const std::vector<PartMeasurement>& parts, int count,
+                    uint64_t seed, const std::filesystem::path& dir, const std::function<RenderedPart(int)>& render);
 
 }  // namespace flatscan

@@ -85,7 +85,7 @@ TEST(FlatnessStudy, LotHasTheRequestedFractionBeyondTheTolerance) {
               bad.beyond_fraction = 1.5;
               SampleLotFlatness(bad, 0.1, rng);
             }),
-            "--beyond: expected a fraction between 0 and 1, got 1.5");
+            "lot.beyond_fraction: expected a fraction between 0 and 1, got 1.5");
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/io/image_io.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/rig_file.h"
@@ -20,34 +21,6 @@
 namespace flatscan {
 namespace {
 
-
-nlohmann::json Json(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
-nlohmann::json Json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
-
-nlohmann::json FitJson(const SupportPlaneFit& fit) {
-  return {{"normal", Json(fit.normal)},
-          {"point", Json(fit.point)},
-          {"residuals_mm", fit.residuals_mm},
-          {"rms_mm", fit.RmsMm()}};
-}
-
-nlohmann::json MarkerSideJson(const RingMarker& m, int index) {
-  return {{"index", index},
-          {"centre_px", Json(m.centre_px)},
-          {"naive_centre_px", Json(m.naive_centre_px)},
-          {"centre_shift_px", m.CentreShiftPx()},
-          {"outer_axes_px", {m.outer.ellipse.a, m.outer.ellipse.b}},
-          {"inner_axes_px", {m.inner.ellipse.a, m.inner.ellipse.b}},
-          {"outer_fit_rms_px", m.outer.rms_px},
-          {"inner_fit_rms_px", m.inner.rms_px},
-          {"radius_ratio", m.radius_ratio}};
-}
-
-nlohmann::json RejectedJson(const MarkerDetection& d) {
-  nlohmann::json out = nlohmann::json::array();
-  for (const RejectedContour& r : d.rejected) out.push_back({{"at_px", Json(r.centroid_px)}, {"reason", r.reason}});
-  return out;
-}
 
 class CalibratePlaneCommand : public Command {
  public:
@@ -64,8 +37,7 @@ class CalibratePlaneCommand : public Command {
         ->required();
     sub_->add_option("--left", left_, "marker image of the left camera (camera 1)")->required();
     sub_->add_option("--right", right_, "marker image of the right camera (camera 2)")->required();
-    sub_->add_option("-o,--output", output_, "plane file to write (OpenCV YAML: normal, point, markers, residuals)")
-        ->required();
+    AddOutputOption(sub_, &output_, "plane file to write (OpenCV YAML: normal, point, markers, residuals)")->required();
     sub_->add_option("--json", json_, "also write a JSON report (fits, residuals, per-marker centres and shifts)");
     sub_->add_flag("--no-center-correction", no_correction_,
                    "use the outer ellipses' centres instead of the two-conic image of the ring centre (to measure "
@@ -85,38 +57,8 @@ class CalibratePlaneCommand : public Command {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     for (const std::string& w : cal.warnings) spdlog::warn("{}", w);
 
-    nlohmann::json markers = nlohmann::json::array();
-    for (const MatchedMarker& m : cal.matched) {
-      markers.push_back({{"position_mm", Json(m.position)},
-                         {"residual_mm", m.residual_mm},
-                         {"epipolar_px", m.epipolar_px},
-                         {"reprojection_px", m.reprojection_px},
-                         {"left", MarkerSideJson(cal.left.markers[m.left], m.left)},
-                         {"right", MarkerSideJson(cal.right.markers[m.right], m.right)}});
-    }
-    nlohmann::json paper = FitJson(cal.paper);
-    paper["r"] = Json(cal.paper_r);
-    const nlohmann::json report = {
-        {"normal", Json(cal.plane.normal)},
-        {"point", Json(cal.plane.point)},
-        {"residuals_mm", cal.plane.residuals_mm},
-        {"markers_found", {{"left", cal.left.markers.size()}, {"right", cal.right.markers.size()}}},
-        {"markers_matched", cal.matched.size()},
-        {"centre_correction", cal.centre_correction},
-        {"plane_fit", "tls"},
-        {"tls_fit", FitJson(cal.tls)},
-        {"paper_fit", paper},
-        {"normals_angle_deg", cal.normals_angle_deg},
-        {"markers", markers},
-        {"rejected_outlines", {{"left", RejectedJson(cal.left)}, {"right", RejectedJson(cal.right)}}},
-        {"warnings", cal.warnings},
-        {"frame", "camera 1 (left), mm; pixels: raw image coordinates, pixel centres at integers"},
-        {"rig", rig_},
-        {"left", left_},
-        {"right", right_},
-        {"plane_file", output_},
-        {"time_ms", ms},
-    };
+    nlohmann::json report = cal.ToJson();
+    report.update({{"rig", rig_}, {"left", left_}, {"right", right_}, {"plane_file", output_}, {"time_ms", ms}});
 
     WritePlaneFile(output_, cal.plane);
     if (!json_.empty()) WriteTextFileAtomically(json_, report.dump(2) + "\n");

@@ -11,6 +11,7 @@
 
 #include "flatscan/calibration/rig_calibration.h"
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/exe/parse_util.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/rig_file.h"
@@ -27,14 +28,6 @@ std::pair<int, int> ParseTimes(const std::string& text, const std::string& optio
   return *parsed;
 }
 
-// Fails early (before minutes of work) when the output's folder does not exist.
-void CheckOutputFolder(const std::filesystem::path& path, const std::string& option) {
-  const std::filesystem::path parent = path.has_parent_path() ? path.parent_path() : ".";
-  std::error_code ec;
-  if (!std::filesystem::is_directory(parent, ec))
-    ThrowInputError("{} '{}': the folder '{}' does not exist", option, path.string(), parent.string());
-}
-
 std::string FileName(const std::string& path) { return std::filesystem::path(path).filename().string(); }
 
 class CalibrateRigCommand : public Command {
@@ -48,12 +41,14 @@ class CalibrateRigCommand : public Command {
         "Example: flatscan calibrate-rig --left 'calib/left_*.png' --right 'calib/right_*.png' --board 9x6 "
         "--square 2.5 -o rig.yml --json rig-report.json\n"
         "Quote the patterns so that flatscan expands them (unquoted, the shell's expansion is accepted too).");
-    sub_->add_option("--left", left_, "left images: file names or patterns (*, ?, [..])")->required()->expected(1, -1);
-    sub_->add_option("--right", right_, "right images: file names or patterns")->required()->expected(1, -1);
-    sub_->add_option("--board", board_, "inner corners of the chessboard, columns x rows (OpenCV's count), e.g. 9x6")
-        ->required();
-    sub_->add_option("--square", square_mm_, "side of a chessboard square in mm")->required();
-    sub_->add_option("-o,--output", output_, "rig file to write (OpenCV FileStorage YAML)")->required();
+    Fills(sub_->add_option("--left", left_, "left images: file names or patterns (*, ?, [..])")->required()->expected(1, -1),
+          "left");
+    Fills(sub_->add_option("--right", right_, "right images: file names or patterns")->required()->expected(1, -1), "right");
+    Fills(sub_->add_option("--board", board_, "inner corners of the chessboard, columns x rows (OpenCV's count), e.g. 9x6")
+              ->required(),
+          "board");
+    Fills(sub_->add_option("--square", square_mm_, "side of a chessboard square in mm")->required(), "board.square_mm");
+    AddOutputOption(sub_, &output_, "rig file to write (OpenCV FileStorage YAML)")->required();
     sub_->add_option("--json", json_, "also write a JSON report (errors per pair, rejected pairs and why)");
     sub_->add_option("--model", model_,
                      "distortion model: standard (k1 k2 p1 p2 k3) or rational (adds k4 k5 k6, for wide-angle lenses)")
@@ -65,7 +60,6 @@ class CalibrateRigCommand : public Command {
     const auto [columns, rows] = ParseTimes(board_, "--board", "the chessboard's inner corners (columns x rows)");
     options.board.columns = columns;
     options.board.rows = rows;
-    if (!(square_mm_ > 0)) ThrowInputError("--square {}: expected the square side in mm, > 0", square_mm_);
     options.board.square_mm = square_mm_;
     options.model = ParseDistortionModel(model_);
     CheckOutputFolder(output_, "--output");

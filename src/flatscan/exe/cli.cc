@@ -53,7 +53,8 @@ int RunCli(int argc, char** argv) {
     try {
       return command->Run();
     } catch (const InputError& e) {
-      spdlog::error("{}", e.what());
+      const std::string flag = e.field().empty() ? std::string() : command->FlagOf(e.field());
+      spdlog::error("{}", flag.empty() ? std::string(e.what()) : flag + ": " + e.detail());
       return 2;
     } catch (const cv::Exception& e) {
       spdlog::error("OpenCV: {}", e.what());

@@ -1,7 +1,10 @@
 #pragma once
 // One class per subcommand: Register() adds its options to the CLI, Run() does the
-// work and returns the exit code. Each lives in its own <name>_command.cc.
+// work and returns the exit code. Each lives in its own <name>_command.cc and stays
+// thin: it parses flags into the library's options, calls the library, prints.
+#include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -14,9 +17,23 @@ class Command {
   virtual void Register(CLI::App& app) = 0;
   virtual int Run() = 0;
   bool Parsed() const { return sub_ != nullptr && sub_->parsed(); }
+  // The flag that fills a library field (the library's InputError names fields,
+  // util/error.h); empty when this command has no such flag.
+  std::string FlagOf(const std::string& field) const {
+    const auto it = flag_of_field_.find(field);
+    return it == flag_of_field_.end() ? std::string() : it->second;
+  }
 
  protected:
+  // `option` fills the library field `field`: errors in it are reported under the flag.
+  CLI::Option* Fills(CLI::Option* option, const std::string& field) {
+    flag_of_field_[field] = option->get_name();
+    return option;
+  }
   CLI::App* sub_ = nullptr;
+
+ private:
+  std::map<std::string, std::string> flag_of_field_;
 };
 
 std::unique_ptr<Command> MakeSimulateCommand();

@@ -1,6 +1,5 @@
 #include <chrono>
 #include <iostream>
-#include <numeric>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -8,6 +7,7 @@
 #include "flatscan/evaluation/flatness_study.h"
 #include "flatscan/evaluation/study_report.h"
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/image_io.h"
 #include "flatscan/simulation/scene_config.h"
@@ -37,35 +37,49 @@ class EvaluateCommand : public Command {
                               "calibrated from its own simulated images; markdown, JSON and PNG charts.");
     sub_->footer("Example: flatscan evaluate --repeat --batch 1000 -o eval-paper\n"
                  "         flatscan evaluate --scene my_rig.yml --batch 200 -o eval-my-rig");
-    auto* preset = sub_->add_option("--preset", preset_, "built-in scene: paper or compact")->default_val("paper");
-    sub_->add_option("--scene", scene_file_, "scene file (YAML or JSON; see docs/simulator.md)")->excludes(preset);
-    sub_->add_option("-o,--output", output_, "output folder (replaced if it exists)")->default_val("flatscan-evaluate");
-    sub_->add_option("--seed", seed_, "random seed (same seed, same figures)")->default_val(1);
+    AddSceneOptions(sub_, &preset_, &scene_file_);
+    AddOutputOption(sub_, &output_, "output folder (replaced if it exists)")->default_val(output_);
+    AddSeedOption(sub_, &seed_);
     sub_->add_flag("--repeat", repeat_, "Table 1: one part shot --shots times");
-    sub_->add_option("--shots", repeat_options_.shots, "shots of the repeat study")->default_val(100)->check(CLI::Range(2, 100000));
-    sub_->add_option("--true-flatness", repeat_options_.flatness_mm, "true flatness of the repeat study's part, mm")
-        ->default_val(0.323)->check(CLI::PositiveNumber);
-    sub_->add_option("--batch", batch_options_.parts, "Table 2: number of different parts")->check(CLI::Range(1, 1000000));
-    sub_->add_option("--tolerance", tolerance_, "flatness tolerance, mm")->default_val(0.1)->check(CLI::PositiveNumber);
-    sub_->add_option("--beyond", batch_options_.lot.beyond_fraction, "fraction of the lot beyond the tolerance")
-        ->default_val(0.4)->check(CLI::Range(0.01, 0.99));
-    sub_->add_option("--lot-spread", batch_options_.lot.log_spread,
-                     "standard deviation of ln(flatness) in the lot (smaller: more parts near the tolerance)")
-        ->default_val(0.8)->check(CLI::Range(0.05, 3.0));
-    sub_->add_option("--rotation-step", rotation_options_.step_deg,
-                     "coverage against rotation: parts turned 0 to --rotation-max degrees to the camera baseline in "
-                     "steps of this many degrees")
-        ->check(CLI::PositiveNumber);
-    sub_->add_option("--rotation-max", rotation_options_.max_deg, "largest rotation of the rotation study, degrees")
-        ->default_val(45.0)->check(CLI::Range(0.0, 360.0));
-    sub_->add_option("--rotation-parts", rotation_options_.parts, "parts of the rotation study (the same at every angle)")
-        ->default_val(10)->check(CLI::Range(1, 100000));
-    sub_->add_option("--calib-poses", calib_poses_, "chessboard pairs for the rig calibration")->default_val(14)->check(CLI::Range(3, 200));
+    Fills(sub_->add_option("--shots", repeat_options_.shots, "shots of the repeat study")
+              ->default_val(repeat_options_.shots)
+              ->check(CLI::Range(2, 100000)),
+          "repeat.shots");
+    Fills(sub_->add_option("--true-flatness", repeat_options_.flatness_mm, "true flatness of the repeat study's part, mm")
+              ->default_val(repeat_options_.flatness_mm)
+              ->check(CLI::PositiveNumber),
+          "repeat.flatness_mm");
+    Fills(sub_->add_option("--batch", batch_options_.parts, "Table 2: number of different parts")->check(CLI::Range(1, 1000000)),
+          "batch.parts");
+    Fills(AddToleranceOption(sub_, &tolerance_), "tolerance_mm");
+    Fills(sub_->add_option("--beyond", batch_options_.lot.beyond_fraction, "fraction of the lot beyond the tolerance")
+              ->default_val(batch_options_.lot.beyond_fraction)
+              ->check(CLI::Range(0.01, 0.99)),
+          "lot.beyond_fraction");
+    Fills(sub_->add_option("--lot-spread", batch_options_.lot.log_spread,
+                           "standard deviation of ln(flatness) in the lot (smaller: more parts near the tolerance)")
+              ->default_val(batch_options_.lot.log_spread)
+              ->check(CLI::Range(0.05, 3.0)),
+          "lot.log_spread");
+    Fills(sub_->add_option("--rotation-step", rotation_options_.step_deg,
+                           "coverage against rotation: parts turned 0 to --rotation-max degrees to the camera baseline "
+                           "in steps of this many degrees")
+              ->check(CLI::PositiveNumber),
+          "rotation.step_deg");
+    Fills(sub_->add_option("--rotation-max", rotation_options_.max_deg, "largest rotation of the rotation study, degrees")
+              ->default_val(rotation_options_.max_deg)
+              ->check(CLI::Range(0.0, 360.0)),
+          "rotation.max_deg");
+    Fills(sub_->add_option("--rotation-parts", rotation_options_.parts, "parts of the rotation study (the same at every angle)")
+              ->default_val(rotation_options_.parts)
+              ->check(CLI::Range(1, 100000)),
+          "rotation.parts");
+    AddCalibrationPosesOption(sub_, &calib_poses_);
     sub_->add_option("--save-worst", save_worst_,
                      "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
         ->default_val(0)->check(CLI::NonNegativeNumber);
-    sub_->add_flag("--no-thickness-correction", no_correction_, "inspect as if the sheet had no thickness");
+    AddNoThicknessCorrectionFlag(sub_, &no_correction_);
     sub_->add_flag("--true-calibration", true_calibration_,
                    "diagnostic: inspect with the simulator's true rig and plane instead of the calibrated ones, to "
                    "separate the calibration's share of the error from the inspection's");
@@ -77,7 +91,7 @@ class EvaluateCommand : public Command {
       ThrowInputError("evaluate: expected --repeat, --batch N and/or --rotation-step DEG (for example: flatscan evaluate "
                       "--repeat --batch 1000)");
     if (batch_options_.parts > 0) CheckLotSpec(batch_options_.lot, tolerance_);
-    SceneConfig scene = scene_file_.empty() ? ScenePreset(preset_) : LoadSceneFile(scene_file_);
+    SceneConfig scene = LoadScene(preset_, scene_file_);
     scene.board.poses = calib_poses_;
     rotation_options_.lot = batch_options_.lot;
     for (StudyOptions* o : {static_cast<StudyOptions*>(&repeat_options_), static_cast<StudyOptions*>(&batch_options_),
@@ -115,7 +129,8 @@ class EvaluateCommand : public Command {
       add_section("repeat", RepeatMarkdown(study, repeat_options_), RepeatJson(study, repeat_options_));
       WriteImage((root / "repeat_shots.png").string(), RepeatShotsChart(study));
       if (save_worst_ > 0)
-        SaveWorstParts(station, study.shots, root / "worst_repeat", [&](int i) { return RenderRepeatShot(station, repeat_options_, i); });
+        SaveWorstParts(station, study.shots, save_worst_, seed_, root / "worst_repeat",
+                       [&](int i) { return RenderRepeatShot(station, repeat_options_, i); });
       WriteImage((root / "repeat_error_histogram.png").string(),
                  ErrorHistogramChart(study.shots, 2 * std::sqrt(study.variance_mm2), "Repeat study: flatness error of each shot"));
     }
@@ -124,7 +139,8 @@ class EvaluateCommand : public Command {
       add_section("batch", BatchMarkdown(study, batch_options_), BatchJson(study, batch_options_));
       WriteImage((root / "batch_measured_vs_true.png").string(), MeasuredVsTrueChart(study, tolerance_));
       if (save_worst_ > 0)
-        SaveWorstParts(station, study.parts, root / "worst", [&](int i) { return RenderBatchPart(station, batch_options_, i); });
+        SaveWorstParts(station, study.parts, save_worst_, seed_, root / "worst",
+                       [&](int i) { return RenderBatchPart(station, batch_options_, i); });
       WriteImage((root / "batch_error_histogram.png").string(),
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
     }
@@ -150,41 +166,10 @@ class EvaluateCommand : public Command {
   bool repeat_ = false;
   bool no_correction_ = false;
   bool true_calibration_ = false;
-  double tolerance_ = 0.1;
-  int calib_poses_ = 14;
+  double tolerance_ = FlatnessSpec::kDefaultToleranceMm;
+  int calib_poses_ = kDefaultCalibrationPoses;
   int save_worst_ = 0;
 
-  // The worst parts' pairs, pairs.csv and truth.json (rim in the camera-1 frame).
-  void SaveWorstParts(const CalibratedStation& station, const std::vector<PartMeasurement>& parts,
-                      const std::filesystem::path& dir, const std::function<RenderedPart(int)>& render) const {
-    std::vector<int> order(parts.size());
-    std::iota(order.begin(), order.end(), 0);
-    const auto badness = [&](int i) { return parts[i].measured ? std::abs(parts[i].ErrorMm()) : 1e9; };
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return badness(a) > badness(b); });
-    order.resize(std::min<size_t>(order.size(), save_worst_));
-    std::filesystem::create_directories(dir);
-    std::string csv = "id,left,right\n";
-    nlohmann::json truth = nlohmann::json::array();
-    for (int i : order) {
-      const PartMeasurement& m = parts[i];
-      const RenderedPart r = render(i);
-      WriteImage((dir / (m.id + "_left.png")).string(), r.left);
-      WriteImage((dir / (m.id + "_right.png")).string(), r.right);
-      csv += fmt::format("{0},{0}_left.png,{0}_right.png\n", m.id);
-      const Rigid3d cam1_from_part = station.truth.cam1_from_support * r.part.shots.front().truth.support_from_part;
-      nlohmann::json rim = nlohmann::json::array();
-      for (const Eigen::Vector3d& p : r.part.geometry.SampleRim(0.1)) {
-        const Eigen::Vector3d q = cam1_from_part * p;
-        rim.push_back({q.x(), q.y(), q.z()});
-      }
-      truth.push_back({{"id", m.id}, {"true_flatness_mm", m.true_flatness_mm}, {"measured", m.measured},
-                       {"flatness_mm", m.values.flatness_mm}, {"thickness_mm", m.thickness_mm},
-                       {"rotation_deg", m.rotation_deg}, {"geometry", PartGeometryToJson(r.part.geometry)},
-                       {"rim_cam1_mm", rim}});
-    }
-    WriteTextFileAtomically(dir / "pairs.csv", csv);
-    WriteTextFileAtomically(dir / "truth.json", truth.dump(1) + "\n");
-  }
   RepeatStudyOptions repeat_options_;
   RotationStudyOptions rotation_options_ = [] {
     RotationStudyOptions o;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/exe/parse_util.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
@@ -32,17 +33,12 @@ class ImportRigCommand : public Command {
     sub_->add_option("--intrinsics", intrinsics_, "intrinsics.yml (M1 D1 M2 D2)")->required();
     sub_->add_option("--extrinsics", extrinsics_, "extrinsics.yml (R T ...)")->required();
     sub_->add_option("--size", size_, "image size WxH in pixels (stereo_calib does not record it)")->required();
-    sub_->add_option("-o,--output", output_, "rig file to write")->required();
+    AddOutputOption(sub_, &output_, "rig file to write")->required();
   }
 
   int Run() override {
     const auto [width, height] = ParseImageSize(size_);
-    const std::filesystem::path parent = std::filesystem::path(output_).has_parent_path()
-                                             ? std::filesystem::path(output_).parent_path()
-                                             : std::filesystem::path(".");
-    std::error_code ec;
-    if (!std::filesystem::is_directory(parent, ec))
-      ThrowInputError("--output '{}': the folder '{}' does not exist", output_, parent.string());
+    CheckOutputFolder(output_, "--output");
     const StereoRig rig = ImportOpenCvStereoCalib(intrinsics_, extrinsics_, width, height);
     WriteRigFile(output_, rig);
     std::cout << fmt::format("imported {} and {}: {}x{}, baseline {:.4f} mm\nwrote {}\n", intrinsics_, extrinsics_,

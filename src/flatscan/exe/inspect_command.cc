@@ -1,50 +1,22 @@
 #include <filesystem>
-#include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
+#include "flatscan/inspection/inspection_record.h"
 #include "flatscan/inspection/inspection_report.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/image_io.h"
+#include "flatscan/io/pairs_csv.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
 #include "flatscan/util/sha256.h"
 
 namespace flatscan {
 namespace {
-
-struct PairEntry {
-  std::string id, left, right;
-};
-
-// id,left,right with paths relative to the CSV's folder.
-std::vector<PairEntry> ReadPairsCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) ThrowInputError("{}: cannot open pairs file (expected a CSV with columns id,left,right)", path);
-  const std::filesystem::path base = std::filesystem::path(path).parent_path();
-  std::vector<PairEntry> out;
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::vector<std::string> cols;
-    std::stringstream s(line);
-    for (std::string c; std::getline(s, c, ',');) cols.push_back(c);
-    if (number == 1 && cols.size() == 3 && cols[0] == "id") continue;
-    if (cols.size() != 3)
-      ThrowInputError("{}: line {} has {} columns (expected 3: id,left,right)", path, number, cols.size());
-    auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
-    out.push_back({cols[0], resolve(cols[1]), resolve(cols[2])});
-  }
-  if (out.empty()) ThrowInputError("{}: no pairs listed (expected lines id,left,right)", path);
-  return out;
-}
 
 class InspectCommand : public Command {
  public:
@@ -60,24 +32,29 @@ class InspectCommand : public Command {
     auto* left = sub_->add_option("--left", left_, "left image");
     sub_->add_option("--right", right_, "right image")->needs(left);
     sub_->add_option("--pairs", pairs_, "CSV id,left,right: measure every pair (paths relative to the CSV)")->excludes(left);
-    sub_->add_option("--thickness", params_.thickness_mm,
-                     "height of the part's side face, mm: the sheet thickness (plus the wall height for folded walls)")
-        ->required()->check(CLI::NonNegativeNumber);
-    sub_->add_option("--tolerance", params_.tolerance_mm, "flatness tolerance, mm (fail above it)")->required()->check(CLI::PositiveNumber);
-    sub_->add_option("--json", json_, "JSON result (batch: one JSON line per part, then a summary line)");
+    Fills(sub_->add_option("--thickness", params_.thickness_mm,
+                           "height of the part's side face, mm: the sheet thickness (plus the wall height for folded walls)")
+              ->required()
+              ->check(CLI::NonNegativeNumber),
+          "thickness_mm");
+    Fills(AddToleranceOption(sub_, &spec_.tolerance_mm)->required(), "tolerance_mm");
+    Fills(sub_->add_option("--guard-band", spec_.guard_band_mm,
+                           "measurement uncertainty U, mm (e.g. from `flatscan evaluate`): a flatness within U of the "
+                           "tolerance is reported as marginal (the verdict and exit code stay pass/fail)")
+              ->default_val(spec_.guard_band_mm)
+              ->check(CLI::NonNegativeNumber),
+          "guard_band_mm");
+    sub_->add_option("--json", json_, "JSON record (batch: one JSON line per part, then a summary line)");
     sub_->add_option("--ply", ply_, "PLY of the valid 3D boundary points with their heights (single pair)");
     sub_->add_option("--overlay", overlay_, "folder for left/right overlay PNGs of the points coloured by height");
-    sub_->add_option("--guard-band", guard_band_mm_,
-                     "measurement uncertainty U, mm (e.g. from `flatscan evaluate`): a flatness within U of the "
-                     "tolerance is reported as marginal (the verdict and exit code stay pass/fail)")
-        ->check(CLI::NonNegativeNumber);
-    sub_->add_flag("--no-thickness-correction", no_correction_, "triangulate silhouettes as if the sheet had no thickness");
+    AddNoThicknessCorrectionFlag(sub_, &no_correction_);
     sub_->add_option("--blur", params_.boundary.blur_sigma_px, "lens blur sigma in px if known (default: estimated)");
   }
 
   int Run() override {
     if (pairs_.empty() && (left_.empty() || right_.empty()))
       ThrowInputError("inspect: give --left and --right, or --pairs");
+    CheckFlatnessSpec(spec_);
     params_.thickness_correction = !no_correction_;
     const StereoRig rig = ReadRigFile(rig_);
     const SupportPlane plane = ReadPlaneFile(plane_);
@@ -92,11 +69,12 @@ class InspectCommand : public Command {
     inputs.right_file = right_;
     const cv::Mat1b l = ReadGreyImage(left_), r = ReadGreyImage(right_);
     const InspectionResult result = InspectPart(rig, plane, l, r, params_, left_, right_);
-    PrintSummary(result);
-    if (!json_.empty()) WriteTextFileAtomically(json_, Record(result, inputs).dump(2) + "\n");
+    const InspectionRecord record = MeasuredRecord(result, params_, spec_, inputs);
+    PrintSummary(record);
+    if (!json_.empty()) WriteTextFileAtomically(json_, RecordToJson(record).dump(2) + "\n");
     if (!ply_.empty()) WritePly(ply_, result);
     if (!overlay_.empty()) WriteOverlays(overlay_, l, r, result);
-    return result.pass ? 0 : 1;
+    return record.judgement.pass() ? 0 : 1;
   }
 
   int RunBatch(const StereoRig& rig, const SupportPlane& plane, const InspectionInputs& base) {
@@ -110,76 +88,62 @@ class InspectCommand : public Command {
       inputs.id = p.id;
       inputs.left_file = p.left;
       inputs.right_file = p.right;
-      nlohmann::json record;
+      InspectionRecord record;
       try {
         const cv::Mat1b l = ReadGreyImage(p.left), r = ReadGreyImage(p.right);
         const InspectionResult result = InspectPart(rig, plane, l, r, params_, p.left, p.right);
-        record = Record(result, inputs);
-        (result.pass ? pass : fail)++;
-        marginal += IsMarginal(result);
-        total_ms += record["timing_ms"]["total"].get<double>();
-        std::cout << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", p.id, result.values.flatness_mm, result.coverage,
-                                 result.pass ? "pass" : "fail", IsMarginal(result) ? "marginal" : "");
+        record = MeasuredRecord(result, params_, spec_, inputs);
+        (record.judgement.pass() ? pass : fail)++;
+        marginal += record.judgement.marginal;
+        total_ms += record.TotalMs();
+        std::cout << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", p.id, record.values.flatness_mm,
+                                 record.coverage, VerdictName(record.judgement.verdict),
+                                 record.judgement.marginal ? "marginal" : "");
         if (!overlay_.empty()) WriteOverlays((std::filesystem::path(overlay_) / p.id).string(), l, r, result);
       } catch (const InputError& e) {
         ++unmeasured;
-        record = NotMeasuredJson(e.what(), inputs);
+        record = NotMeasuredRecord(e.what(), params_, spec_, inputs);
         spdlog::error("{}: not measured: {}", p.id, e.what());
         std::cout << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", p.id, "-", "-", "-", "not measured");
       }
-      lines += record.dump() + "\n";
+      lines += RecordToJson(record).dump() + "\n";
     }
     const nlohmann::json summary = {{"summary", true},  {"parts", pairs.size()}, {"pass", pass}, {"fail", fail},
                                     {"not_measured", unmeasured}, {"marginal", marginal},
                                     {"mean_time_ms", pass + fail > 0 ? total_ms / (pass + fail) : 0.0}};
     lines += summary.dump() + "\n";
     std::cout << fmt::format("{} parts: {} pass, {} fail, {} not measured{}\n", pairs.size(), pass, fail, unmeasured,
-                             guard_band_mm_ >= 0 ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, guard_band_mm_) : "");
+                             spec_.guard_band_mm > 0
+                                 ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, spec_.guard_band_mm)
+                                 : "");
     if (!json_.empty()) WriteTextFileAtomically(json_, lines);
     if (unmeasured > 0) return 2;
     return fail > 0 ? 1 : 0;
   }
 
-  void PrintSummary(const InspectionResult& r) const {
-    double total = 0;
-    for (const auto& [stage, ms] : r.timing_ms) total += ms;
+  void PrintSummary(const InspectionRecord& r) const {
     std::cout << fmt::format(
         "flatness_mm {:.4f}  lsq_pv_mm {:.4f}  minzone_mm {:.4f}\nverdict {} (tolerance {:.3f} mm, thickness {:.3f} mm)\n"
         "points: {} valid of {} matched ({} / {} crossings), coverage {:.3f}{}\ntime {:.1f} ms\n",
         r.values.flatness_mm, r.values.lsq_pv_mm, r.values.minzone_mm,
-        std::string(r.pass ? "pass" : "fail") +
-            (IsMarginal(r) ? fmt::format(" MARGINAL: within the {:.4f} mm guard band", guard_band_mm_) : ""),
-        params_.tolerance_mm,
-        params_.thickness_mm, r.valid, r.matched, r.crossings_left, r.crossings_right, r.coverage,
-        r.completed > 0 ? fmt::format(" ({} outline points completed from the warp fit)", r.completed) : "", total);
+        std::string(VerdictName(r.judgement.verdict)) +
+            (r.judgement.marginal ? fmt::format(" MARGINAL: within the {:.4f} mm guard band", r.spec.guard_band_mm) : ""),
+        r.spec.tolerance_mm, r.thickness_mm, r.valid, r.matched, r.crossings_left, r.crossings_right, r.coverage,
+        r.completed > 0 ? fmt::format(" ({} outline points completed from the warp fit)", r.completed) : "", r.TotalMs());
   }
 
   void WriteOverlays(const std::string& dir, const cv::Mat1b& l, const cv::Mat1b& r, const InspectionResult& result) const {
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) ThrowInputError("cannot create folder '{}': {}", dir, ec.message());
-    WriteImage((std::filesystem::path(dir) / "left_overlay.png").string(), DrawHeightOverlay(l, result, 0, params_.tolerance_mm));
-    WriteImage((std::filesystem::path(dir) / "right_overlay.png").string(), DrawHeightOverlay(r, result, 1, params_.tolerance_mm));
-  }
-
-  // With --guard-band: |flatness - tolerance| <= U.
-  bool IsMarginal(const InspectionResult& r) const {
-    return guard_band_mm_ >= 0 && std::abs(r.values.flatness_mm - params_.tolerance_mm) <= guard_band_mm_;
-  }
-
-  nlohmann::json Record(const InspectionResult& result, const InspectionInputs& inputs) const {
-    nlohmann::json record = InspectionToJson(result, params_, inputs);
-    if (guard_band_mm_ >= 0) {
-      record["guard_band_mm"] = guard_band_mm_;
-      record["marginal"] = IsMarginal(result);
-    }
-    return record;
+    WriteImage((std::filesystem::path(dir) / "left_overlay.png").string(), DrawHeightOverlay(l, result, RigSide::kLeft, spec_));
+    WriteImage((std::filesystem::path(dir) / "right_overlay.png").string(), DrawHeightOverlay(r, result, RigSide::kRight, spec_));
   }
 
   std::string rig_, plane_, left_, right_, pairs_, json_, ply_, overlay_;
   bool no_correction_ = false;
-  double guard_band_mm_ = -1;  // < 0: none
   InspectionParams params_;
+  FlatnessSpec spec_;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/simulation/dataset.h"
 #include "flatscan/util/error.h"
 
@@ -17,13 +18,10 @@ class SimulateCommand : public Command {
     sub_ = app.add_subcommand("simulate", "Render a simulated inspection dataset (the digital twin): true rig, "
                                           "calibration pairs, marker pair, part pairs and truth.json.");
     sub_->footer("Example: flatscan simulate --preset paper --parts 5 --shots 3 --seed 7 -o data/paper");
-    auto* preset = sub_->add_option("--preset", preset_, "built-in scene: paper (DESIGN section 4) or compact")
-                       ->default_val("paper");
-    sub_->add_option("--scene", scene_file_, "scene file (YAML or JSON) overriding any parameter; see docs/simulator.md")
-        ->excludes(preset);
-    sub_->add_option("-o,--output", output_, "output folder (replaced if it exists)");
+    AddSceneOptions(sub_, &preset_, &scene_file_);
+    AddOutputOption(sub_, &output_, "dataset folder to write (replaced if it exists)");
     sub_->add_flag("--print-scene", print_scene_, "print the resolved scene as JSON (a starting point for a scene file) and exit");
-    sub_->add_option("--seed", seed_, "random seed: the same seed gives the same bytes")->default_val(1);
+    AddSeedOption(sub_, &seed_);
     sub_->add_option("--parts", parts_, "number of parts (overrides the scene)")->check(CLI::NonNegativeNumber);
     sub_->add_option("--shots", shots_, "repeated shots of each part: fresh noise and placement jitter")
         ->check(CLI::PositiveNumber);
@@ -35,7 +33,7 @@ class SimulateCommand : public Command {
 
   int Run() override {
     SimulateOptions options;
-    options.scene = scene_file_.empty() ? ScenePreset(preset_) : LoadSceneFile(scene_file_);
+    options.scene = LoadScene(preset_, scene_file_);
     if (parts_ >= 0) options.scene.dataset.parts = parts_;
     if (shots_ > 0) options.scene.dataset.shots = shots_;
     if (calib_poses_ >= 0) options.scene.board.poses = calib_poses_;

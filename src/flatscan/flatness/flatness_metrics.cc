@@ -159,24 +159,6 @@ Eigen::Vector3d ExploreEqualWidthSlopes(const ZoneFrame& f, double width,
 
 }  // namespace
 
-PlaneFit FitPlaneTotalLeastSquares(const std::vector<Eigen::Vector3d>& points) {
-  RequireAtLeastThree(points, "FitPlaneTotalLeastSquares");
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  // The right singular vectors of the centred N x 3 matrix are the eigenvectors of its
-  // scatter matrix; the smallest one is the TLS normal.
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) {
-    const Eigen::Vector3d d = p - centroid;
-    scatter.noalias() += d * d.transpose();
-  }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
-  Eigen::Vector3d normal = eig.eigenvectors().col(0).normalized();
-  if (normal.z() < 0.0) normal = -normal;  // deterministic sign: toward +z
-  return {normal, centroid};
-}
-
 double LeastSquaresPeakToValley(const std::vector<Eigen::Vector3d>& points) {
   const PlaneFit fit = FitPlaneTotalLeastSquares(points);
   return WidthAlong(points, fit.centroid, fit.normal);

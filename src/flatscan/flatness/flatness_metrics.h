@@ -18,15 +18,9 @@
 
 #include <Eigen/Core>
 
+#include "flatscan/geometry/plane_fit.h"
+
 namespace flatscan {
-
-struct PlaneFit {
-  Eigen::Vector3d normal;    // unit, oriented with normal.z() >= 0
-  Eigen::Vector3d centroid;  // a point on the plane
-};
-
-// Total-least-squares plane (smallest singular vector of the centred points).
-PlaneFit FitPlaneTotalLeastSquares(const std::vector<Eigen::Vector3d>& points);
 
 // Peak-to-valley of the orthogonal distances about the TLS plane.
 double LeastSquaresPeakToValley(const std::vector<Eigen::Vector3d>& points);

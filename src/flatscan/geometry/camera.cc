@@ -1,12 +1,24 @@
 #include "flatscan/geometry/camera.h"
 
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
 #include "flatscan/util/error.h"
 
 namespace flatscan {
+
+std::string DistortionModelName(DistortionModel model) {
+  return model == DistortionModel::kRational ? "rational" : "standard";
+}
+
+DistortionModel ParseDistortionModel(const std::string& name) {
+  if (name == "standard") return DistortionModel::kStandard;
+  if (name == "rational") return DistortionModel::kRational;
+  ThrowInputError("unknown distortion model '{}' (expected standard: k1 k2 p1 p2 k3, or rational: k1..k6 p1 p2)",
+                  name);
+}
 
 cv::Mat Camera::CameraMatrix() const {
   return (cv::Mat_<double>(3, 3) << fx, 0, cx, 0, fy, cy, 0, 0, 1);
@@ -40,6 +52,8 @@ Camera Camera::FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortio
 }
 
 namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Distortion and its Jacobian d(x_d, y_d)/d(x, y).
 Eigen::Vector2d DistortWithJacobian(const std::array<double, 8>& k, const Eigen::Vector2d& xy,
@@ -85,11 +99,12 @@ Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xy_distorted,
     const Eigen::Vector2d step((jac(1, 1) * residual.x() - jac(0, 1) * residual.y()) / det,
                                (jac(0, 0) * residual.y() - jac(1, 0) * residual.x()) / det);
     xy -= step;
-    // Newton converges quadratically: a step below 1e-12 (1e-8 px at f = 10^4 px) leaves
-    // an error of the order of its square.
-    if (step.squaredNorm() < 1e-24) break;
+    // Newton converges quadratically: a step below 1e-12 leaves an error of the order
+    // of its square. Beyond the fold of the lens model (det <= 0) a solution of the
+    // equation exists but is not the ray the pixel saw.
+    if (step.squaredNorm() < 1e-24) return det > 0 ? xy : Eigen::Vector2d::Constant(kNaN);
   }
-  return xy;
+  return Eigen::Vector2d::Constant(kNaN);
 }
 
 Eigen::Vector2d Camera::Project(const Eigen::Vector3d& point_cam) const {
@@ -111,6 +126,15 @@ Eigen::Vector2d Camera::PixelToNormalized(const Eigen::Vector2d& pixel,
                                           const Eigen::Vector2d& guess) const {
   const Eigen::Vector2d xd((pixel.x() - cx) / fx, (pixel.y() - cy) / fy);
   return Undistort(xd, guess);
+}
+
+Eigen::Vector2d Camera::PixelToIdeal(const Eigen::Vector2d& pixel) const {
+  const Eigen::Vector2d xy = PixelToNormalized(pixel);
+  return {fx * xy.x() + cx, fy * xy.y() + cy};
+}
+
+Eigen::Vector2d Camera::IdealToPixel(const Eigen::Vector2d& ideal) const {
+  return NormalizedToPixel({(ideal.x() - cx) / fx, (ideal.y() - cy) / fy});
 }
 
 }  // namespace flatscan

@@ -1,5 +1,6 @@
 #pragma once
-// OpenCV pinhole camera with lens distortion (calib3d model).
+// The camera model: OpenCV's pinhole camera with lens distortion (calib3d), its
+// distortion, projection and unprojection, in one place.
 //
 // A point X = (X, Y, Z) in the camera frame (mm, Z forward) has normalized coordinates
 // x = X/Z, y = Y/Z. With r^2 = x^2 + y^2 the distorted normalized point is
@@ -8,13 +9,49 @@
 //   y_d = y radial + p1 (r^2 + 2 y^2) + 2 p2 x y
 // and the pixel is u = fx x_d + cx, v = fy y_d + cy, where integer (u, v) are pixel
 // CENTRES (the top-left pixel's centre is (0, 0)), as in OpenCV.
+//
+// Three coordinate systems of one camera appear in the code:
+//   pixel       raw image coordinates (with distortion), what the sensor records;
+//   normalized  (x, y) of the undistorted ray (x, y, 1): Distort / Undistort;
+//   ideal pixel K (x, y, 1): where a distortion-free camera with the same camera
+//               matrix K would see the point (circles of a plane project to conics
+//               there: marker detection; the epipolar geometry of calibration).
+//
+// When to use what: Project for a 3D point; PixelToNormalized for the ray of a raw
+// pixel (exact, by Newton's method: cv::undistortPoints with its default 5 fixed-point
+// iterations errs by pixels near the border of a strongly distorted lens);
+// PixelToIdeal / IdealToPixel for conic fits and epipolar distances.
+//
+// How to add a camera model (for example OpenCV's fisheye model, or the thin-prism
+// terms s1..s4 of the 12-coefficient form):
+//   1. Here: the coefficients (extend `dist`, or add a model field), Distort and its
+//      analytic Jacobian in DistortWithJacobian (camera.cc; Undistort's Newton steps
+//      and its fold check use that Jacobian), and DistortionVector / FromOpenCv so
+//      the coefficients keep OpenCV's order and length.
+//   2. DistortionModel below if rig calibration should fit it (calibration/
+//      rig_calibration.cc maps it to cv::calibrateCamera / cv::stereoCalibrate flags).
+//   3. The rig file keys D1 / D2 (io/rig_file.cc, ReadDistortion: which lengths are
+//      accepted and which coefficients must be zero) and docs/conventions.md.
+//   4. The simulator needs nothing: it renders through Distort / Undistort.
+//   5. Tests in geometry/camera_test.cc: Distort against cv::projectPoints, the
+//      Jacobian against finite differences, the Newton round trip over the whole
+//      image, the fold, and a rig file round trip (io/rig_file_test.cc).
 #include <array>
-#include <vector>
+#include <string>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 namespace flatscan {
+
+// Which distortion coefficients a calibration fits.
+enum class DistortionModel {
+  kStandard,  // k1 k2 p1 p2 k3: most lenses, and the simulator's
+  kRational,  // k1 k2 p1 p2 k3 k4 k5 k6: strongly distorting wide-angle lenses
+};
+// "standard" / "rational"; Parse throws InputError naming the accepted values.
+std::string DistortionModelName(DistortionModel model);
+DistortionModel ParseDistortionModel(const std::string& name);
 
 struct Camera {
   int width = 0;
@@ -32,18 +69,25 @@ struct Camera {
 
   // Normalized undistorted -> normalized distorted (the model above).
   Eigen::Vector2d Distort(const Eigen::Vector2d& xy) const;
-  // Inverse of Distort by Newton's method with the analytic Jacobian, iterated to
-  // 1e-14 (cv::undistortPoints' default 5 fixed-point steps are not enough near the
-  // border of strongly distorted lenses). `guess` may seed the iteration.
+  // Inverse of Distort by Newton's method with the analytic Jacobian, iterated until a
+  // step is below 1e-12 (1e-8 px at f = 10^4 px). `guess` may seed the iteration.
+  // Returns (NaN, NaN) where the model cannot be inverted: Newton does not settle, or
+  // it settles beyond the radius where the distortion folds back on itself (the
+  // Jacobian's determinant is not positive there, so the solution is not the physical
+  // ray).
   Eigen::Vector2d Undistort(const Eigen::Vector2d& xy_distorted) const;
   Eigen::Vector2d Undistort(const Eigen::Vector2d& xy_distorted, const Eigen::Vector2d& guess) const;
 
   // Camera-frame point (mm) -> pixel. Requires Z > 0.
   Eigen::Vector2d Project(const Eigen::Vector3d& point_cam) const;
-  // Pixel -> normalized undistorted coordinates (x, y) with ray direction (x, y, 1).
+  // Pixel -> normalized undistorted coordinates (x, y) with ray direction (x, y, 1);
+  // (NaN, NaN) where Undistort is.
   Eigen::Vector2d PixelToNormalized(const Eigen::Vector2d& pixel) const;
   Eigen::Vector2d PixelToNormalized(const Eigen::Vector2d& pixel, const Eigen::Vector2d& guess) const;
   Eigen::Vector2d NormalizedToPixel(const Eigen::Vector2d& xy) const;
+  // Pixel <-> ideal pixel K (x, y, 1) (see the top of this file).
+  Eigen::Vector2d PixelToIdeal(const Eigen::Vector2d& pixel) const;
+  Eigen::Vector2d IdealToPixel(const Eigen::Vector2d& ideal) const;
 
   bool InImage(const Eigen::Vector2d& pixel, double margin = 0.0) const {
     return pixel.x() >= -0.5 + margin && pixel.y() >= -0.5 + margin &&

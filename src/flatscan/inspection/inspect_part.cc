@@ -32,9 +32,10 @@ Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, 
     const Eigen::Vector3d seen = d * (level / up.dot(d));
     Eigen::Vector3d outward = d_out * (level / up.dot(d_out)) - seen;
     outward -= outward.dot(up) * up;
-    const int top = (-seen).dot(outward) > 0 ? 0 : 1;  // camera 1 is at the origin
-    const Eigen::Vector3d bottom = seen - top * thickness * up;
-    const double next = warp.Height(bottom) + top * thickness;
+    // Camera 1 is at the origin: it sees the bottom edge from the outer side.
+    const double rise = EdgeRise((-seen).dot(outward) > 0 ? SilhouetteEdge::kBottom : SilhouetteEdge::kTop);
+    const Eigen::Vector3d bottom = seen - rise * thickness * up;
+    const double next = warp.Height(bottom) + rise * thickness;
     if (std::abs(next - h) < 1e-4 && iter > 0) return bottom;
     h = next;
   }
@@ -44,17 +45,15 @@ Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, 
 // Per segment of the left outline (chain point i to i + 1): whether valid rim points
 // sample it; and the covered fraction of the outline's length. A segment is sampled
 // when a valid point lies within 2 segments, or when it lies between two consecutive
-// valid points on adjacent rows at most kMaxGap segments apart: a boundary running at
-// a shallow angle to the rows is crossed only every 1 / |n_x| chain points, and all
-// of its crossings were measured (the matcher takes |n_x| down to 0.04: 25 points).
+// valid points on adjacent rows at most `max_gap` segments apart
+// (InspectionParams::coverage_max_gap_points).
 struct OutlineCoverage {
   std::vector<char> covered;
   double fraction = 0;
 };
 
 OutlineCoverage CoverOutline(const BoundaryResult& boundary, const ContourInfo& outer, const std::vector<int>& chain_indices,
-                             const std::vector<int>& rows) {
-  constexpr int kMaxGap = 28;
+                             const std::vector<int>& rows, int max_gap) {
   const int n = outer.end - outer.begin;
   OutlineCoverage out{std::vector<char>(n, 0), 0.0};
   auto wrap = [n](int i) { return ((i % n) + n) % n; };
@@ -63,7 +62,7 @@ OutlineCoverage CoverOutline(const BoundaryResult& boundary, const ContourInfo& 
     for (int k = -2; k <= 2; ++k) out.covered[wrap(chain_indices[j] + k)] = 1;
     const int next = (j + 1) % m;
     const int gap = wrap(chain_indices[next] - chain_indices[j]);
-    if (gap <= kMaxGap && std::abs(rows[next] - rows[j]) <= 1)
+    if (gap <= max_gap && std::abs(rows[next] - rows[j]) <= 1)
       for (int k = 0; k < gap; ++k) out.covered[wrap(chain_indices[j] + k)] = 1;
   }
   double covered = 0, total = 0;
@@ -85,14 +84,16 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
                              const std::string& right_name) {
   InspectionResult result;
   StageTimer timer(&result.timing_ms);
-  const StereoOutline outline = MatchStereoOutline(rig, plane, left, right, params, left_name, right_name, &timer);
+  const StereoRectification rectification(rig);
+  const StereoOutline outline =
+      MatchStereoOutline(rectification, plane, left, right, params, left_name, right_name, &timer);
   result.blur_left_px = outline.left.blur_sigma_px;
   result.blur_right_px = outline.right.blur_sigma_px;
   result.crossings_left = static_cast<int>(outline.left_crossings.size());
   result.crossings_right = static_cast<int>(outline.right_crossings.size());
   result.matched = static_cast<int>(outline.matches.size());
 
-  RimPoints measured = TriangulateRim(rig, plane, outline, params);
+  RimPoints measured = TriangulateRim(rectification, plane, outline, params);
   timer.Mark("triangulation");
   result.side_tilt_rad = measured.side_tilt_rad;
   result.valid = static_cast<int>(measured.points.size());
@@ -120,7 +121,8 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   timer.Mark("rim_heights");
 
   const ContourInfo& outer = outline.left.contours[outline.left_part];
-  const OutlineCoverage coverage = CoverOutline(outline.left, outer, measured.rim_chain_index, measured.rim_row);
+  const OutlineCoverage coverage =
+      CoverOutline(outline.left, outer, measured.rim_chain_index, measured.rim_row, params.coverage_max_gap_points);
   result.coverage = coverage.fraction;
   // Stretches the two cameras cannot measure (boundary along the epipolar rows) are
   // completed from the warp surface fitted to the measured rim and hole edges.
@@ -144,7 +146,6 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     }
   }
   result.values = ComputeFlatness(rim_all, heights_all);
-  result.pass = result.values.flatness_mm <= params.tolerance_mm;
   timer.Mark("flatness");
   return result;
 }

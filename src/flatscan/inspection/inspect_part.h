@@ -1,8 +1,9 @@
 #pragma once
-// Inspection of one part from a stereo pair (DESIGN section 2, the whole pipeline):
-// sub-pixel boundaries on the raw images, crossings with the rectified rows, fused-cost
-// matching, thickness-aware triangulation, radius outlier removal, heights above the
-// support plane, the three flatness values and the verdict.
+// Inspection of one part from a stereo pair (docs/design.md, "The pipeline"): sub-pixel
+// boundaries on the raw images, crossings with the rectified rows, fused-cost matching,
+// thickness-aware triangulation, radius outlier removal, heights above the support
+// plane and the three flatness values. It measures; it does not judge: the verdict
+// against a tolerance is flatness/verdict.h's.
 #include <map>
 #include <string>
 #include <vector>
@@ -13,14 +14,34 @@
 #include "flatscan/boundary/boundary.h"
 #include "flatscan/calibration/stereo_rig.h"
 #include "flatscan/flatness/flatness_metrics.h"
+#include "flatscan/reconstruction/rectified_stereo.h"
 #include "flatscan/reconstruction/stereo_matching.h"
 #include "flatscan/support_plane/support_plane.h"
 
 namespace flatscan {
 
+// What the images must show to be measured (else InputError, "not measured"). The
+// defaults reject what no backlit 8-bit image of one whole part gives.
+struct ImageAcceptance {
+  // Backlight grey level (the bright class of the part's band): below it the edges'
+  // steps are too small for the sub-pixel fit against sensor noise.
+  double min_backlight_grey = 60;
+  // Fraction of the backlight's samples at 255: beyond it the clipped profiles bias the
+  // edge towards the part.
+  double max_saturated_fraction = 0.25;
+  // An open contour at least this long (px) that ends within `border_margin_px` of the
+  // image border is a part cut by the border (shorter ones: dust, vignetting).
+  double min_cut_contour_px = 50;
+  double border_margin_px = 10;
+  // The part's outline must enclose at least this fraction of the image (smaller: dust,
+  // no part); a second outline enclosing material of more than `second_part_area_ratio`
+  // of the largest is a second part.
+  double min_part_area_fraction = 1e-4;
+  double second_part_area_ratio = 0.1;
+};
+
 struct InspectionParams {
   double thickness_mm = 0.2;    // height of the part's side face (sheet, plus walls if any)
-  double tolerance_mm = 0.1;
   bool thickness_correction = true;
   // Side faces along the sheet's normal estimated from a first pass (the normal of the
   // fitted warp surface at the footprint's centre: the part's rest tilt), not the
@@ -40,6 +61,12 @@ struct InspectionParams {
   // Complete the outline where the cameras cannot measure it (boundary along the
   // epipolar rows) from a cubic warp surface fitted to the measured rim.
   bool complete_unmeasured = true;
+  // Coverage: a shallow stretch of the outline counts as sampled when two consecutive
+  // valid points on adjacent rows are at most this many chain points (about 1 px each)
+  // apart: a boundary at a shallow angle to the rows is crossed only every 1 / |n_x|
+  // chain points, and the matcher takes |n_x| down to 0.04 (25 points).
+  int coverage_max_gap_points = 28;
+  ImageAcceptance acceptance;
   BoundaryOptions boundary;
 };
 
@@ -48,12 +75,11 @@ struct InspectedPoint {
   double height_mm = 0.0;        // above the support plane (smoothed along the rim)
   Eigen::Vector2d left_raw, right_raw;  // where it was seen
   bool outer = false;            // on the part's outer boundary (the rim)
-  int left_edge = 0, right_edge = 0;   // 0 bottom edge, 1 top edge seen by each camera
+  SilhouetteEdge left_edge = SilhouetteEdge::kBottom, right_edge = SilhouetteEdge::kBottom;  // seen by each camera
 };
 
 struct InspectionResult {
   FlatnessValues values;
-  bool pass = false;
   int crossings_left = 0, crossings_right = 0, matched = 0, valid = 0;
   double coverage = 0.0;         // fraction of the outer boundary's length with valid points
   int completed = 0;             // outline points completed from the warp model

@@ -81,8 +81,9 @@ struct Triangulation {
 
 class Triangulator {
  public:
-  Triangulator(const StereoRig& rig, const SupportPlane& plane, const StereoOutline& outline, const InspectionParams& params)
-      : stereo_(RectifiedStereo::FromRig(rig)), plane_(plane), outline_(outline), params_(params), right_(outline) {
+  Triangulator(const RectifiedStereo& stereo, const SupportPlane& plane, const StereoOutline& outline,
+               const InspectionParams& params)
+      : stereo_(stereo), plane_(plane), outline_(outline), params_(params), right_(outline) {
     if (!params.thickness_correction) return;
     silhouettes_.reserve(outline.matches.size());
     for (const StereoMatch& m : outline.matches) silhouettes_.push_back(right_.Near(outline.right_crossings[m.right]));
@@ -145,7 +146,7 @@ class Triangulator {
   }
 
  private:
-  RectifiedStereo stereo_;
+  const RectifiedStereo& stereo_;
   const SupportPlane& plane_;
   const StereoOutline& outline_;
   const InspectionParams& params_;
@@ -185,20 +186,22 @@ std::vector<bool> DropAtViewTurns(const Triangulation& tri, const std::vector<st
     auto seen = [&](int j) -> const BottomPoint& { return tri.seen[chain_order[((j % m) + m) % m].second]; };
     // Each camera's facing averaged over 9 neighbours along the rim: the normal's
     // noise (about +-0.004 here) would flip the sign of a face seen nearly edge-on.
-    std::array<std::vector<double>, 2> mean_facing;
-    for (int camera = 0; camera < 2; ++camera) {
-      mean_facing[camera].resize(m);
+    constexpr std::array<RigSide, 2> kSides = {RigSide::kLeft, RigSide::kRight};
+    std::array<std::vector<double>, 2> mean_facing;  // by RigSide
+    for (const RigSide side : kSides) {
+      std::vector<double>& mean = mean_facing[static_cast<int>(side)];
+      mean.resize(m);
       for (int j = 0; j < m; ++j) {
         double sum = 0;
-        for (int k = j - 4; k <= j + 4; ++k) sum += camera == 0 ? seen(k).facing_left : seen(k).facing_right;
-        mean_facing[camera][j] = sum / 9;
+        for (int k = j - 4; k <= j + 4; ++k) sum += seen(k).Facing(side);
+        mean[j] = sum / 9;
       }
     }
     std::vector<int> stretch;
     for (int j = 0; j < m; ++j) {
-      for (int camera = 0; camera < 2; ++camera) {
-        auto facing = [&](int k) { return mean_facing[camera][((k % m) + m) % m]; };
-        auto generator = [&](int k) { return camera == 0 ? seen(k).generator_left_mm : seen(k).generator_right_mm; };
+      for (const RigSide side : kSides) {
+        auto facing = [&](int k) { return mean_facing[static_cast<int>(side)][((k % m) + m) % m]; };
+        auto generator = [&](int k) { return seen(k).GeneratorMm(side); };
         if ((facing(j) > 0) == (facing(j + 1) > 0)) continue;
         const double reach = std::max(generator(j), generator(j + 1)) + 2.5 * point(j).cam1.z() * pixel_scale;
         stretch.clear();
@@ -290,14 +293,14 @@ RimPoints CollectRim(const Triangulation& tri, double pixel_scale, bool thicknes
   // that normal everywhere (assumed: the faces are parallel to the sheet normal at the
   // part's centre, exact for a flat tilted sheet; a warped sheet's local normal at
   // the rim differs by the warp's slope there, which is not modelled).
-RimPoints TriangulateRim(const StereoRig& rig, const SupportPlane& plane, const StereoOutline& outline,
-                         const InspectionParams& params) {
-  Triangulator triangulator(rig, plane, outline, params);
+RimPoints TriangulateRim(const StereoRectification& rectification, const SupportPlane& plane,
+                         const StereoOutline& outline, const InspectionParams& params) {
+  Triangulator triangulator(rectification.stereo(), plane, outline, params);
   const double pixel_scale = 1.0 / triangulator.stereo().f;  // mm per pixel per mm of depth
   RimPoints rim = CollectRim(triangulator.Run(plane.normal), pixel_scale, params.thickness_correction);
   if (!params.thickness_correction || !params.estimate_side_tilt) return rim;
   const std::optional<Eigen::Vector3d> centre =
-      FootprintCentre(rig.left, plane, outline.left, outline.left.contours[outline.left_part]);
+      FootprintCentre(rectification.left().camera(), plane, outline.left, outline.left.contours[outline.left_part]);
   // Two passes: the first estimate comes from heights biased by the very tilt it
   // estimates (measured: 10-20% too large); the second is within a few percent.
   for (int pass = 0; pass < 2 && centre && rim.rim.size() >= 20; ++pass) {

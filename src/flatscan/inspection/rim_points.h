@@ -5,7 +5,7 @@
 // dropped, and the side faces' direction estimated from the part itself.
 #include <vector>
 
-#include "flatscan/calibration/stereo_rig.h"
+#include "flatscan/calibration/rectification.h"
 #include "flatscan/flatness/rim_heights.h"
 #include "flatscan/inspection/inspect_part.h"
 #include "flatscan/inspection/stereo_outline.h"
@@ -23,7 +23,7 @@ struct RimPoints {
   double side_tilt_rad = 0;            // of the side faces from the support normal
 };
 
-RimPoints TriangulateRim(const StereoRig& rig, const SupportPlane& plane, const StereoOutline& outline,
-                         const InspectionParams& params);
+RimPoints TriangulateRim(const StereoRectification& rectification, const SupportPlane& plane,
+                         const StereoOutline& outline, const InspectionParams& params);
 
 }  // namespace flatscan

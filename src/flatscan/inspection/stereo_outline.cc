@@ -5,35 +5,10 @@
 #include <limits>
 #include <tuple>
 
-#include <opencv2/core/eigen.hpp>
-
-#include "flatscan/reconstruction/rectified_stereo.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
 namespace {
-
-// Raw image point <-> rectified point of one camera (exact undistortion).
-struct CameraRectification {
-  const Camera& camera;
-  Eigen::Matrix3d rect_from_cam;
-  double f, cx, cy;
-  CameraRectification(const Camera& cam, const cv::Mat& r, const cv::Mat& p) : camera(cam) {
-    cv::cv2eigen(r, rect_from_cam);
-    f = p.at<double>(0, 0);
-    cx = p.at<double>(0, 2);
-    cy = p.at<double>(1, 2);
-  }
-  Eigen::Vector2d ToRectified(const Eigen::Vector2d& raw) const {
-    const Eigen::Vector2d n = camera.PixelToNormalized(raw);
-    const Eigen::Vector3d x = rect_from_cam * Eigen::Vector3d(n.x(), n.y(), 1.0);
-    return {f * x.x() / x.z() + cx, f * x.y() / x.z() + cy};
-  }
-  Eigen::Vector2d ToRaw(const Eigen::Vector2d& rect) const {
-    const Eigen::Vector3d x = rect_from_cam.transpose() * Eigen::Vector3d((rect.x() - cx) / f, (rect.y() - cy) / f, 1.0);
-    return camera.NormalizedToPixel(Eigen::Vector2d(x.x() / x.z(), x.y() / x.z()));
-  }
-};
 
 double SignedArea(const BoundaryResult& b, const ContourInfo& c) {
   double area = 0;
@@ -58,16 +33,17 @@ bool EnclosesMaterial(const BoundaryResult& b, const ContourInfo& c) {
 }
 
 // Checks what the image shows and returns the outer contour of the one part.
-int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::string& name) {
-  if (b.bright_level < 60)
-    ThrowInputError("{}: under-exposed (backlight grey level {:.0f}; expected at least 60): increase exposure or light", name, b.bright_level);
-  if (b.saturated_fraction > 0.25)
+int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const ImageAcceptance& accept, const std::string& name) {
+  if (b.bright_level < accept.min_backlight_grey)
+    ThrowInputError("{}: under-exposed (backlight grey level {:.0f}; expected at least {:.0f}): increase exposure or light",
+                    name, b.bright_level, accept.min_backlight_grey);
+  if (b.saturated_fraction > accept.max_saturated_fraction)
     ThrowInputError("{}: over-exposed ({:.0f}% of the backlight is saturated at 255): reduce exposure so the backlight stays below 255",
                     name, 100 * b.saturated_fraction);
   int best = -1, parts = 0;
   double best_area = 0;
   std::vector<double> areas(b.contours.size(), 0.0);
-  const double min_area = 1e-4 * image.cols * image.rows;
+  const double min_area = accept.min_part_area_fraction * image.cols * image.rows;
   for (size_t c = 0; c < b.contours.size(); ++c) {
     const ContourInfo& info = b.contours[c];
     if (!info.closed || !EnclosesMaterial(b, info)) continue;
@@ -76,11 +52,12 @@ int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::
   }
   // Open contours that end at the image border: a part cut by the border.
   for (const ContourInfo& info : b.contours) {
-    if (info.closed || info.length_px < 50) continue;
+    if (info.closed || info.length_px < accept.min_cut_contour_px) continue;
     const EdgePoint& a = b.points[info.begin];
     const EdgePoint& z = b.points[info.end - 1];
+    const double m = accept.border_margin_px;
     auto near_border = [&](const EdgePoint& p) {
-      return p.x < 10 || p.y < 10 || p.x > image.cols - 11 || p.y > image.rows - 11;
+      return p.x < m || p.y < m || p.x > image.cols - 1 - m || p.y > image.rows - 1 - m;
     };
     if (near_border(a) || near_border(z))
       ThrowInputError("{}: the part touches the image border: place it fully inside both cameras' views", name);
@@ -88,7 +65,7 @@ int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const std::
   if (best < 0 || best_area < min_area)
     ThrowInputError("{}: no part found (expected a dark part on the bright backlight, fully in view)", name);
   for (size_t c = 0; c < b.contours.size(); ++c)
-    if (areas[c] > 0.1 * best_area) ++parts;
+    if (areas[c] > accept.second_part_area_ratio * best_area) ++parts;
   if (parts > 1) ThrowInputError("{}: {} parts found: inspect one part at a time", name, parts);
   return best;
 }
@@ -185,10 +162,12 @@ void CheckDisparitySign(const std::vector<RowCrossing>& lc, const std::vector<Ro
 
 }  // namespace
 
-StereoOutline MatchStereoOutline(const StereoRig& rig, const SupportPlane& plane, const cv::Mat1b& left,
-                                 const cv::Mat1b& right, const InspectionParams& params, const std::string& left_name,
-                                 const std::string& right_name, StageTimer* timer) {
-  for (const auto& [image, name, cam] : {std::tuple(&left, &left_name, &rig.left), std::tuple(&right, &right_name, &rig.right)})
+StereoOutline MatchStereoOutline(const StereoRectification& rectification, const SupportPlane& plane,
+                                 const cv::Mat1b& left, const cv::Mat1b& right, const InspectionParams& params,
+                                 const std::string& left_name, const std::string& right_name, StageTimer* timer) {
+  const PointRectifier &left_rect = rectification.left(), &right_rect = rectification.right();
+  for (const auto& [image, name, cam] : {std::tuple(&left, &left_name, &left_rect.camera()),
+                                         std::tuple(&right, &right_name, &right_rect.camera())})
     if (image->cols != cam->width || image->rows != cam->height)
       ThrowInputError("{}: image is {}x{} but the rig was calibrated for {}x{}: use the images of the calibrated cameras",
                       *name, image->cols, image->rows, cam->width, cam->height);
@@ -197,22 +176,18 @@ StereoOutline MatchStereoOutline(const StereoRig& rig, const SupportPlane& plane
   timer->Mark("boundary_left");
   out.right = DetectBoundary(right, params.boundary);
   timer->Mark("boundary_right");
-  out.left_part = FindPartContour(out.left, left, left_name);
-  out.right_part = FindPartContour(out.right, right, right_name);
+  out.left_part = FindPartContour(out.left, left, params.acceptance, left_name);
+  out.right_part = FindPartContour(out.right, right, params.acceptance, right_name);
 
-  const CameraRectification left_rect(rig.left, rig.rectification.R1, rig.rectification.P1);
-  const CameraRectification right_rect(rig.right, rig.rectification.R2, rig.rectification.P2);
-  out.left_crossings = CrossRows(out.left, [&](const Eigen::Vector2d& p) { return left_rect.ToRectified(p); });
-  out.right_crossings =
-      CrossRows(out.right, [&](const Eigen::Vector2d& p) { return right_rect.ToRectified(p); }, &out.right_chains);
+  out.left_crossings = CrossRows(out.left, [&](const Eigen::Vector2d& p) { return left_rect.RawToRectified(p); });
+  out.right_crossings = CrossRows(
+      out.right, [&](const Eigen::Vector2d& p) { return right_rect.RawToRectified(p); }, &out.right_chains);
   timer->Mark("rectify_crossings");
 
-  const RectifiedStereo stereo = RectifiedStereo::FromRig(rig);
-  const PlausibleDisparities range(stereo, plane, params.max_height_mm);
+  const PlausibleDisparities range(rectification.stereo(), plane, params.max_height_mm);
   CheckDisparitySign(out.left_crossings, out.right_crossings, out.left_part, out.right_part, range, left_name, right_name);
-  out.matches = MatchCrossings(out.left_crossings, out.right_crossings, left, right,
-                               [&](const Eigen::Vector2d& p) { return left_rect.ToRaw(p); },
-                               [&](const Eigen::Vector2d& p) { return right_rect.ToRaw(p); }, range, params.matching);
+  out.matches = MatchCrossings(out.left_crossings, out.right_crossings, left, right, left_rect, right_rect, range,
+                               params.matching);
   timer->Mark("matching");
   if (out.matches.empty()) ThrowNothingMatched(out.left_crossings, out.right_crossings, range, left_name, right_name);
   return out;

@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "flatscan/boundary/boundary.h"
-#include "flatscan/calibration/stereo_rig.h"
+#include "flatscan/calibration/rectification.h"
 #include "flatscan/inspection/inspect_part.h"
 #include "flatscan/reconstruction/stereo_matching.h"
 #include "flatscan/support_plane/support_plane.h"
@@ -30,8 +30,8 @@ struct StereoOutline {
 // measured: image sizes that do not fit the rig, no part, a part touching the border,
 // several parts, bad exposure, swapped images, nothing matched. Marks the stages
 // boundary_left, boundary_right, rectify_crossings and matching.
-StereoOutline MatchStereoOutline(const StereoRig& rig, const SupportPlane& plane, const cv::Mat1b& left,
-                                 const cv::Mat1b& right, const InspectionParams& params, const std::string& left_name,
-                                 const std::string& right_name, StageTimer* timer);
+StereoOutline MatchStereoOutline(const StereoRectification& rectification, const SupportPlane& plane,
+                                 const cv::Mat1b& left, const cv::Mat1b& right, const InspectionParams& params,
+                                 const std::string& left_name, const std::string& right_name, StageTimer* timer);
 
 }  // namespace flatscan

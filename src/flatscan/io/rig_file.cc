@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "flatscan/calibration/rectification.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/util/error.h"
 
@@ -281,6 +282,14 @@ StereoRig ReadRigFile(const fs::path& path) {
   for (size_t i = 0; i < kRectificationKeys.size(); ++i) {
     const RectificationKey& k = kRectificationKeys[i];
     m[i] = in.ReadMatrix(k.key, k.meaning, k.rows, k.cols);
+  }
+  for (const int i : {2, 3}) {  // P1, P2: the sparse rectification relies on this form
+    Eigen::Matrix3d k;
+    cv::cv2eigen(cv::Mat(m[i](cv::Rect(0, 0, 3, 3))), k);
+    if (!IsRectifiedCameraMatrix(k))
+      in.Fail(kRectificationKeys[i].key,
+              "must have cv::stereoRectify's form [f 0 cx tx; 0 f cy ty; 0 0 1 0] (one focal length f > 0, no "
+              "skew); remove R1 R2 P1 P2 Q to have them recomputed");
   }
   rig.rectification = {m[0], m[1], m[2], m[3], m[4]};
   return rig;

@@ -3,31 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <Eigen/Dense>
-#include <opencv2/core/eigen.hpp>
 
-#include "flatscan/util/error.h"
 
 namespace flatscan {
-
-RectifiedStereo RectifiedStereo::FromRig(const StereoRig& rig) {
-  FLATSCAN_CHECK(!rig.rectification.empty());
-  const Rectification& r = rig.rectification;
-  RectifiedStereo s;
-  s.f = r.P1.at<double>(0, 0);
-  s.cx1 = r.P1.at<double>(0, 2);
-  s.cy = r.P1.at<double>(1, 2);
-  s.cx2 = r.P2.at<double>(0, 2);
-  s.tx = r.P2.at<double>(0, 3) / r.P2.at<double>(0, 0);
-  FLATSCAN_CHECK(std::abs(r.P2.at<double>(1, 3)) < 1e-9 * std::abs(r.P2.at<double>(0, 3)));  // horizontal rig
-  cv::cv2eigen(r.R1, s.rect1_from_cam1);
-  return s;
-}
-
-double RectifiedStereo::Disparity(const Eigen::Vector3d& x) const {
-  return (f * x.x() / x.z() + cx1) - (f * (x.x() + tx) / x.z() + cx2);
-}
 
 Eigen::Vector3d TriangulateRow(const RectifiedStereo& s, double u_left, double u_right, double row) {
   // u_L - u_R = -f tx / Z + (cx1 - cx2)
@@ -55,7 +36,7 @@ Eigen::Vector2d ProjectRight(const RectifiedStereo& s, const Eigen::Vector3d& x)
 }
 
 struct EdgeSeen {
-  int edge = 0;            // 0 bottom, 1 top
+  SilhouetteEdge edge = SilhouetteEdge::kBottom;
   double facing = 0;       // sine of the angle between the line of sight and the side face
   double generator = 0;    // mm
 };
@@ -68,7 +49,7 @@ EdgeSeen Seen(const Eigen::Vector3d& c, const Eigen::Vector3d& p, const Eigen::V
   const double along = v.dot(side);
   EdgeSeen e;
   e.facing = v.dot(outward) / v.norm();
-  e.edge = e.facing > 0 ? 0 : 1;
+  e.edge = e.facing > 0 ? SilhouetteEdge::kBottom : SilhouetteEdge::kTop;
   e.generator = thickness * (v - along * side).norm() / std::max(along, 1e-9);
   return e;
 }
@@ -117,7 +98,7 @@ BottomPoint TriangulateBottomPoint(const RectifiedStereo& s, double u_left, doub
   if (!(naive.z() > 0) || !naive.allFinite()) return out;
   const Eigen::Vector3d dl = s.LeftRay(u_left, row);  // naive = z dl (dl.z = 1)
   Eigen::Vector3d bottom = naive;
-  int left_edge = -1, right_edge = -1;
+  std::optional<SilhouetteEdge> left_edge, right_edge;  // none before the first pass
   for (int pass = 0; pass < 3; ++pass) {
     // The rim's outward normal across the side face: the image tangent and normal
     // lifted onto the plane across the face through the current point.
@@ -137,15 +118,16 @@ BottomPoint TriangulateBottomPoint(const RectifiedStereo& s, double u_left, doub
     if (l.edge == left_edge && r.edge == right_edge) break;
     left_edge = l.edge;
     right_edge = r.edge;
+    const double left_rise = EdgeRise(l.edge), right_rise = EdgeRise(r.edge);
     double z = naive.z();
-    if (left_edge != right_edge)
-      z = SolveOnRightSilhouette(s, dl, (right_edge - left_edge) * thickness * side, right_silhouette, naive.z());
+    if (l.edge != r.edge)
+      z = SolveOnRightSilhouette(s, dl, (right_rise - left_rise) * thickness * side, right_silhouette, naive.z());
     if (!(z > 0)) return out;
-    bottom = z * dl - left_edge * thickness * side;
+    bottom = z * dl - left_rise * thickness * side;
   }
   out.rect1 = bottom;
-  out.left_edge = left_edge;
-  out.right_edge = right_edge;
+  out.left_edge = *left_edge;
+  out.right_edge = *right_edge;
   out.valid = bottom.allFinite() && bottom.z() > 0;
   return out;
 }

@@ -1,13 +1,9 @@
 #pragma once
-// The rectified stereo geometry (cv::stereoRectify's R1, P1, P2) and triangulation
-// with the part's thickness taken into account.
+// Triangulation in the rectified stereo geometry (RectifiedStereo, calibration/
+// rectification.h: rectified frame 1, X_rect1 = R1 X_cam1), with the part's thickness
+// taken into account.
 //
-// Rectified frame 1: X_rect1 = R1 X_cam1. Camera 1 is at the origin; camera 2 at
-// (-Tx, 0, 0) with P2 = [f 0 cx2 Tx f; 0 f cy 0; 0 0 1 0] (Tx < 0 when camera 2 is
-// to the right). A rectified pixel (u, v) of camera k is the ray direction
-// ((u - cx_k) / f, (v - cy) / f, 1) from camera k's centre.
-//
-// Thickness (DESIGN section 2): against a backlight each camera's silhouette is the
+// Thickness (docs/design.md, "Thickness"): against a backlight each camera's silhouette is the
 // bottom or the top edge of the sheet's side face: the bottom edge when the camera
 // lies on the outer side of the side face (it sees the face), the top edge
 // (bottom + t S, S the direction of the side face, toward the cameras) otherwise.
@@ -23,31 +19,23 @@
 
 #include <Eigen/Core>
 
-#include "flatscan/calibration/stereo_rig.h"
+#include "flatscan/calibration/rectification.h"
 #include "flatscan/support_plane/support_plane.h"
 
 namespace flatscan {
 
-struct RectifiedStereo {
-  double f = 0, cx1 = 0, cx2 = 0, cy = 0;
-  double tx = 0;                       // camera 2 centre at (-tx, 0, 0) in rectified frame 1
-  Eigen::Matrix3d rect1_from_cam1;     // R1
-
-  static RectifiedStereo FromRig(const StereoRig& rig);
-  Eigen::Vector3d LeftRay(double u, double v) const { return {(u - cx1) / f, (v - cy) / f, 1.0}; }
-  Eigen::Vector3d RightRay(double u, double v) const { return {(u - cx2) / f, (v - cy) / f, 1.0}; }
-  Eigen::Vector3d RightCentre() const { return {-tx, 0.0, 0.0}; }
-  // Disparity u_L - u_R of a rectified-frame-1 point.
-  double Disparity(const Eigen::Vector3d& x_rect1) const;
-};
-
 // Plain triangulation of a left/right crossing on the same rectified row.
 Eigen::Vector3d TriangulateRow(const RectifiedStereo& stereo, double u_left, double u_right, double row);
 
+// Which edge of the sheet's side face forms a camera's silhouette.
+enum class SilhouetteEdge { kBottom, kTop };
+// The edge's height above the bottom edge, in side-face heights: 0 or 1.
+inline double EdgeRise(SilhouetteEdge edge) { return edge == SilhouetteEdge::kTop ? 1.0 : 0.0; }
+
 struct BottomPoint {
   Eigen::Vector3d rect1;     // the bottom-edge point, rectified frame 1, mm
-  int left_edge = 0;         // 0: the left camera saw the bottom edge, 1: the top edge
-  int right_edge = 0;
+  SilhouetteEdge left_edge = SilhouetteEdge::kBottom;  // the edge each camera saw
+  SilhouetteEdge right_edge = SilhouetteEdge::kBottom;
   // Per camera, the sine of the angle between its line of sight and the side face
   // (positive: the camera is on the outer side and sees the bottom edge). Near a sign
   // change along the rim the silhouette runs along the face's vertical generator and
@@ -57,6 +45,8 @@ struct BottomPoint {
   // generator can cover the silhouette: t times the tangent of the viewing angle.
   double generator_left_mm = 0, generator_right_mm = 0;
   bool valid = false;
+  double Facing(RigSide side) const { return side == RigSide::kLeft ? facing_left : facing_right; }
+  double GeneratorMm(RigSide side) const { return side == RigSide::kLeft ? generator_left_mm : generator_right_mm; }
 };
 
 // `u_left`, `row`: the left crossing (rectified); `normal_left`: its unit image normal

@@ -14,7 +14,8 @@ namespace {
 // must come out exactly, with no straight-tangent or level-rim approximation.
 TEST(TriangulateBottomPoint, ExactOnASlopedCornerWhereTheCamerasSeeDifferentEdges) {
   const Station st = BuildStation(ScenePreset("paper"));
-  const RectifiedStereo s = RectifiedStereo::FromRig(st.rig);
+  const StereoRectification rectification(st.rig);
+  const RectifiedStereo& s = rectification.stereo();
   const Eigen::Vector3d up = s.rect1_from_cam1 * st.plane.normal;
   const Eigen::Vector3d e1 = up.unitOrthogonal(), e2 = up.cross(e1);
   const Eigen::Vector3d centre = s.rect1_from_cam1 * st.plane.point;
@@ -66,8 +67,8 @@ TEST(TriangulateBottomPoint, ExactOnASlopedCornerWhereTheCamerasSeeDifferentEdge
     const Eigen::Vector2d normal_left = (project_left(seen + 0.01 * out_world) - left).normalized();
     const BottomPoint bp = TriangulateBottomPoint(s, left.x(), std::round(left.y()), normal_left, silhouette, u_right, up, thickness);
     ASSERT_TRUE(bp.valid);
-    EXPECT_EQ(bp.left_edge, left_edge);
-    EXPECT_EQ(bp.right_edge, right_edge);
+    EXPECT_EQ(EdgeRise(bp.left_edge), left_edge);
+    EXPECT_EQ(EdgeRise(bp.right_edge), right_edge);
     // Exact up to the polyline's chords (5e-3 rad steps) and the tangent's level lift.
     EXPECT_LT((bp.rect1 - truth).norm(), 2e-4) << "angle " << a;
     ++tested;

@@ -12,11 +12,12 @@ namespace {
 
 // N x N window of grey values around a crossing, rectified axes, sampled bilinearly
 // from the raw image through the local affine map rectified -> raw.
-std::vector<float> SampleWindow(const cv::Mat1b& image, const RowCrossing& c, const RectifiedToRaw& to_raw, int n) {
+std::vector<float> SampleWindow(const cv::Mat1b& image, const RowCrossing& c, const PointRectifier& rectifier, int n) {
   const Eigen::Vector2d at(c.x, c.row);
   const Eigen::Vector2d raw(c.raw_x, c.raw_y);
-  const Eigen::Vector2d ex = to_raw(at + Eigen::Vector2d(1, 0)) - to_raw(at);
-  const Eigen::Vector2d ey = to_raw(at + Eigen::Vector2d(0, 1)) - to_raw(at);
+  const Eigen::Vector2d raw_at = rectifier.RectifiedToRaw(at);
+  const Eigen::Vector2d ex = rectifier.RectifiedToRaw(at + Eigen::Vector2d(1, 0)) - raw_at;
+  const Eigen::Vector2d ey = rectifier.RectifiedToRaw(at + Eigen::Vector2d(0, 1)) - raw_at;
   std::vector<float> w(n * n);
   const int h = n / 2;
   for (int j = -h; j <= h; ++j)
@@ -48,13 +49,13 @@ struct RowIndex {
 
 std::vector<StereoMatch> MatchCrossings(const std::vector<RowCrossing>& left, const std::vector<RowCrossing>& right,
                                         const cv::Mat1b& left_image, const cv::Mat1b& right_image,
-                                        const RectifiedToRaw& left_to_raw, const RectifiedToRaw& right_to_raw,
+                                        const PointRectifier& left_rectifier, const PointRectifier& right_rectifier,
                                         const DisparityRange& range, const MatchingParams& params) {
   const RowIndex left_rows(left), right_rows(right);
   const int n = params.window;
   std::vector<std::vector<float>> right_windows(right.size());
   auto right_window = [&](int r) -> const std::vector<float>& {
-    if (right_windows[r].empty()) right_windows[r] = SampleWindow(right_image, right[r], right_to_raw, n);
+    if (right_windows[r].empty()) right_windows[r] = SampleWindow(right_image, right[r], right_rectifier, n);
     return right_windows[r];
   };
   auto usable = [&](const RowCrossing& c) { return std::abs(c.nx) >= params.min_abs_nx; };
@@ -85,7 +86,7 @@ std::vector<StereoMatch> MatchCrossings(const std::vector<RowCrossing>& left, co
         const RowCrossing& b = right[r];
         const double d = a.x - b.x;
         if (d < d_lo || d > d_hi || !usable(b) || (a.nx > 0) != (b.nx > 0)) continue;
-        if (wl.empty()) wl = SampleWindow(left_image, a, left_to_raw, n);
+        if (wl.empty()) wl = SampleWindow(left_image, a, left_rectifier, n);
         const std::vector<float>& wr = right_window(r);
         double ssd = 0;
         for (size_t i = 0; i < wl.size(); ++i) ssd += (wl[i] - wr[i]) * (wl[i] - wr[i]);

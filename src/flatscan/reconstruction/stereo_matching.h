@@ -24,6 +24,7 @@
 #include <opencv2/core.hpp>
 
 #include "flatscan/boundary/boundary.h"
+#include "flatscan/calibration/rectification.h"
 
 namespace flatscan {
 
@@ -51,12 +52,13 @@ struct StereoMatch {
 
 // Disparity range allowed at a left crossing (x, row): [lo, hi].
 using DisparityRange = std::function<std::pair<double, double>(double x, int row)>;
-// Maps a rectified point of camera k to its raw image point.
-using RectifiedToRaw = std::function<Eigen::Vector2d(const Eigen::Vector2d&)>;
 
+// `left`, `right`: the crossings of each image with the rectified rows (CrossRows
+// through `left_rectifier` / `right_rectifier`, which also map the matching windows
+// back into the raw images). Returns the mutual best matches, in left crossing order.
 std::vector<StereoMatch> MatchCrossings(const std::vector<RowCrossing>& left, const std::vector<RowCrossing>& right,
                                         const cv::Mat1b& left_image, const cv::Mat1b& right_image,
-                                        const RectifiedToRaw& left_to_raw, const RectifiedToRaw& right_to_raw,
+                                        const PointRectifier& left_rectifier, const PointRectifier& right_rectifier,
                                         const DisparityRange& range, const MatchingParams& params = {});
 
 }  // namespace flatscan

@@ -35,7 +35,7 @@ struct FlatPartScene {
   }
   // Image x where row v meets the projection of the part-frame line
   // p(s) = origin + s * direction (s in [s0, s1]) at height z.
-  double ProjectedXAtRow(int camera, Eigen::Vector2d origin, Eigen::Vector2d direction, double z, double v) const {
+  double ProjectedXAtRow(RigSide camera, Eigen::Vector2d origin, Eigen::Vector2d direction, double z, double v) const {
     auto project = [&](double s) {
       const Eigen::Vector2d p = origin + s * direction;
       return station.GetCamera(camera).Project(station.CamFromSupport(camera) * (truth.support_from_part * Eigen::Vector3d(p.x(), p.y(), z)));
@@ -71,7 +71,7 @@ TEST(CoverageRenderer, ZeroThicknessSilhouetteMatchesAnalyticProjection) {
   FlatPartScene scene(0.0, 15.0, Eigen::Vector2d(3.0, -2.0));
   const PartOccluder occluder(scene.geometry, scene.truth.support_from_part);
   double worst = 0.0;
-  for (int camera = 0; camera < 2; ++camera) {
+  for (const RigSide camera : {RigSide::kLeft, RigSide::kRight}) {
     const CoverageTile tile = RenderCoverage(scene.station.GetCamera(camera), scene.station.CamFromSupport(camera), occluder);
     ASSERT_FALSE(tile.roi.empty());
     for (int side = 0; side < 2; ++side) {
@@ -84,7 +84,7 @@ TEST(CoverageRenderer, ZeroThicknessSilhouetteMatchesAnalyticProjection) {
         // The left camera looks down with image x along support +x (rotation 15 deg
         // keeps that): the part lies to the right of its x = -a edge.
         const double measured = MeasuredCrossing(tile, v, analytic, side == 0);
-        EXPECT_NEAR(measured, analytic, 0.01) << "camera " << camera << " side " << side << " row " << v;
+        EXPECT_NEAR(measured, analytic, 0.01) << "camera " << int(camera) << " side " << side << " row " << v;
         worst = std::max(worst, std::abs(measured - analytic));
       }
     }
@@ -100,14 +100,14 @@ TEST(CoverageRenderer, SheetThicknessSilhouetteComesFromBottomOrTopEdge) {
   const double t = 0.3;
   FlatPartScene scene(t, 0.0, Eigen::Vector2d(0.0, 0.0));
   const PartOccluder occluder(scene.geometry, scene.truth.support_from_part);
-  const CoverageTile tile = RenderCoverage(scene.station.GetCamera(0), scene.station.CamFromSupport(0), occluder);
+  const CoverageTile tile = RenderCoverage(scene.station.GetCamera(RigSide::kLeft), scene.station.CamFromSupport(RigSide::kLeft), occluder);
   for (double s : {-3.0, 0.0, 3.0}) {
     for (int side = 0; side < 2; ++side) {
       const double x_edge = side == 0 ? -8.0 : 8.0;
-      const Eigen::Vector3d p = scene.station.CamFromSupport(0) * (scene.truth.support_from_part * Eigen::Vector3d(x_edge, s, 0));
-      const int v = static_cast<int>(std::round(scene.station.GetCamera(0).Project(p).y()));
-      const double bottom = scene.ProjectedXAtRow(0, {x_edge, 0.0}, {0.0, 1.0}, 0.0, v);
-      const double top = scene.ProjectedXAtRow(0, {x_edge, 0.0}, {0.0, 1.0}, t, v);
+      const Eigen::Vector3d p = scene.station.CamFromSupport(RigSide::kLeft) * (scene.truth.support_from_part * Eigen::Vector3d(x_edge, s, 0));
+      const int v = static_cast<int>(std::round(scene.station.GetCamera(RigSide::kLeft).Project(p).y()));
+      const double bottom = scene.ProjectedXAtRow(RigSide::kLeft, {x_edge, 0.0}, {0.0, 1.0}, 0.0, v);
+      const double top = scene.ProjectedXAtRow(RigSide::kLeft, {x_edge, 0.0}, {0.0, 1.0}, t, v);
       ASSERT_GT(std::abs(top - bottom), 0.5) << "edges must be distinguishable";
       const double measured = MeasuredCrossing(tile, v, 0.5 * (top + bottom), side == 0);
       const double expected = side == 0 ? bottom : top;

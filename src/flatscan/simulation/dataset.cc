@@ -8,9 +8,11 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "flatscan/io/atomic_output.h"
+#include "flatscan/io/pairs_csv.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/coverage_renderer.h"
 #include "flatscan/simulation/image_formation.h"
+#include "flatscan/simulation/truth_file.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -20,7 +22,7 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kImageMarginPx = 24.0;  // parts and boards stay this far from the border
 
 // Linear radiance -> blurred, vignetted, noisy 8-bit image.
-cv::Mat1b FinishImage(const Station& st, int camera, cv::Mat1f& radiance, const std::vector<cv::Rect>& regions,
+cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, const std::vector<cv::Rect>& regions,
                       uint64_t noise_seed) {
   BlurRegions(radiance, st.scene.optics.blur_sigma_px, regions);
   const Camera& cam = st.GetCamera(camera);
@@ -41,7 +43,7 @@ std::vector<std::unique_ptr<Occluder>> MarkerOccluders(const Station& st) {
   return out;
 }
 
-void DrawOccluder(const Station& st, int camera, const Occluder& occ, double grey, cv::Mat1f& radiance,
+void DrawOccluder(const Station& st, RigSide camera, const Occluder& occ, double grey, cv::Mat1f& radiance,
                   std::vector<cv::Rect>& regions) {
   const CoverageTile tile = RenderCoverage(st.GetCamera(camera), st.CamFromSupport(camera), occ);
   BlendCoverage(radiance, tile, grey);
@@ -54,23 +56,6 @@ void WritePng(const std::filesystem::path& path, const cv::Mat1b& image) {
       ThrowInputError("cannot write image '{}'", path.string());
   });
 }
-
-nlohmann::json PoseJson(const Rigid3d& pose) {
-  nlohmann::json r = nlohmann::json::array();
-  for (int i = 0; i < 3; ++i) r.push_back({pose.rotation(i, 0), pose.rotation(i, 1), pose.rotation(i, 2)});
-  return {{"R", r}, {"t", {pose.translation.x(), pose.translation.y(), pose.translation.z()}}};
-}
-
-nlohmann::json PointsJson(const std::vector<Eigen::Vector3d>& points, size_t stride = 1) {
-  nlohmann::json out = nlohmann::json::array();
-  for (size_t i = 0; i < points.size(); i += stride) {
-    const Eigen::Vector3d& p = points[i];
-    out.push_back({std::round(p.x() * 1e6) / 1e6, std::round(p.y() * 1e6) / 1e6, std::round(p.z() * 1e6) / 1e6});
-  }
-  return out;
-}
-
-nlohmann::json VectorJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 // 3D outline of a part pose, for visibility checks.
 std::vector<Eigen::Vector3d> PartOutline(const PartGeometry& g, const Rigid3d& support_from_part) {
@@ -144,7 +129,7 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
   return part;
 }
 
-cv::Mat1b RenderPartImage(const Station& st, int camera, const PartGeometry& geometry,
+cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry& geometry,
                           const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers) {
   const Camera& cam = st.GetCamera(camera);
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(st.scene.lighting.backlight_grey));
@@ -155,7 +140,7 @@ cv::Mat1b RenderPartImage(const Station& st, int camera, const PartGeometry& geo
   return FinishImage(st, camera, radiance, regions, noise_seed);
 }
 
-cv::Mat1b RenderMarkerImage(const Station& st, int camera, uint64_t noise_seed) {
+cv::Mat1b RenderMarkerImage(const Station& st, RigSide camera, uint64_t noise_seed) {
   const Camera& cam = st.GetCamera(camera);
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(st.scene.lighting.backlight_grey));
   std::vector<cv::Rect> regions;
@@ -163,7 +148,7 @@ cv::Mat1b RenderMarkerImage(const Station& st, int camera, uint64_t noise_seed) 
   return FinishImage(st, camera, radiance, regions, noise_seed);
 }
 
-cv::Mat1b RenderBoardImage(const Station& st, int camera, const Rigid3d& support_from_board, uint64_t noise_seed) {
+cv::Mat1b RenderBoardImage(const Station& st, RigSide camera, const Rigid3d& support_from_board, uint64_t noise_seed) {
   const BoardSpec& b = st.scene.board;
   const int cols = b.inner_corners[0] + 1, rows = b.inner_corners[1] + 1;
   const double s = b.square_mm, m = b.margin_squares * s;
@@ -258,12 +243,12 @@ SimulateSummary SimulateDataset(const SimulateOptions& options, const std::funct
     for (size_t i = 0; i < board_poses.size(); ++i) {
       report(fmt::format("calibration pair {}/{}", i + 1, board_poses.size()));
       const std::string l = fmt::format("calib/left_{:02d}.png", i), r = fmt::format("calib/right_{:02d}.png", i);
-      WritePng(root / l, RenderBoardImage(st, 0, board_poses[i], next_seed()));
-      WritePng(root / r, RenderBoardImage(st, 1, board_poses[i], next_seed()));
+      WritePng(root / l, RenderBoardImage(st, RigSide::kLeft, board_poses[i], next_seed()));
+      WritePng(root / r, RenderBoardImage(st, RigSide::kRight, board_poses[i], next_seed()));
       add(l);
       add(r);
       board_json["views"].push_back({{"left", l.substr(6)}, {"right", r.substr(6)},
-                                     {"cam1_from_board", PoseJson(st.cam1_from_support * board_poses[i])}});
+                                     {"cam1_from_board", PoseToJson(st.cam1_from_support * board_poses[i])}});
     }
     WriteTextFileAtomically(root / "calib" / "board.json", board_json.dump(2) + "\n");
     add("calib/board.json");
@@ -272,68 +257,39 @@ SimulateSummary SimulateDataset(const SimulateOptions& options, const std::funct
   if (options.marker_images) {
     report("marker pair");
     std::filesystem::create_directories(root / "markers");
-    WritePng(root / "markers/left.png", RenderMarkerImage(st, 0, next_seed()));
-    WritePng(root / "markers/right.png", RenderMarkerImage(st, 1, next_seed()));
+    WritePng(root / "markers/left.png", RenderMarkerImage(st, RigSide::kLeft, next_seed()));
+    WritePng(root / "markers/right.png", RenderMarkerImage(st, RigSide::kRight, next_seed()));
     add("markers/left.png");
     add("markers/right.png");
   }
 
-  nlohmann::json truth;
-  truth["seed"] = options.seed;
-  truth["scene"] = st.scene.name;
-  truth["frame"] = "camera 1 (left), mm";
-  truth["plane"] = {{"normal", VectorJson(st.plane.normal)}, {"point", VectorJson(st.plane.point)},
-                    {"markers", PointsJson(st.plane.markers)}};
-  truth["parts"] = nlohmann::json::array();
-  std::string pairs_csv = "id,left,right\n";
+  nlohmann::json truth_parts = nlohmann::json::array();
+  std::vector<PairEntry> pairs;
   if (!parts.empty()) std::filesystem::create_directories(root / "parts");
   for (const SimulatedPart& part : parts) {
-    nlohmann::json pj;
-    const PartTruth& t0 = part.shots.front().truth;
-    pj["id"] = fmt::format("part_{:03d}", part.id);
-    pj["flatness_mm"] = t0.flatness_mm;
-    pj["lsq_pv_mm"] = t0.lsq_pv_mm;
-    pj["minzone_mm"] = t0.minzone_mm;
-    pj["thickness_mm"] = part.geometry.thickness;
-    pj["geometry"] = PartGeometryToJson(part.geometry);
-    pj["shots"] = nlohmann::json::array();
+    std::vector<ShotFiles> files;
     for (size_t s = 0; s < part.shots.size(); ++s) {
       report(fmt::format("part {}/{} shot {}/{}", part.id + 1, parts.size(), s + 1, part.shots.size()));
       const PlacedShot& shot = part.shots[s];
       const std::string stem = part.shots.size() > 1 ? fmt::format("parts/part_{:03d}_shot_{:02d}", part.id, s)
                                                      : fmt::format("parts/part_{:03d}", part.id);
-      const std::string id = stem.substr(6);
+      files.push_back({stem.substr(6), stem + "_left.png", stem + "_right.png"});
       const bool markers = st.scene.dataset.markers_in_part_images;
-      WritePng(root / (stem + "_left.png"), RenderPartImage(st, 0, part.geometry, shot.truth.support_from_part, next_seed(), markers));
-      WritePng(root / (stem + "_right.png"), RenderPartImage(st, 1, part.geometry, shot.truth.support_from_part, next_seed(), markers));
-      add(stem + "_left.png");
-      add(stem + "_right.png");
-      pairs_csv += fmt::format("{},{}_left.png,{}_right.png\n", id, stem, stem);
-      const Rigid3d cam1_from_part = st.cam1_from_support * shot.truth.support_from_part;
-      pj["shots"].push_back({{"id", id},
-                             {"left", stem + "_left.png"},
-                             {"right", stem + "_right.png"},
-                             {"rotation_deg", shot.rotation_deg},
-                             {"position_mm", {shot.position.x(), shot.position.y()}},
-                             {"cam1_from_part", PoseJson(cam1_from_part)}});
+      WritePng(root / files.back().left, RenderPartImage(st, RigSide::kLeft, part.geometry, shot.truth.support_from_part, next_seed(), markers));
+      WritePng(root / files.back().right, RenderPartImage(st, RigSide::kRight, part.geometry, shot.truth.support_from_part, next_seed(), markers));
+      add(files.back().left);
+      add(files.back().right);
+      pairs.push_back({files.back().id, files.back().left, files.back().right});
       ++summary.part_pairs;
     }
-    // Bottom rim in the camera-1 frame for the first shot (other shots: apply their
-    // cam1_from_part to rim_part_mm).
-    std::vector<Eigen::Vector3d> rim_part = part.geometry.SampleRim(0.1);
-    std::vector<Eigen::Vector3d> rim_cam1;
-    const Rigid3d cam1_from_part = st.cam1_from_support * t0.support_from_part;
-    for (const Eigen::Vector3d& p : rim_part) rim_cam1.push_back(cam1_from_part * p);
-    pj["rim_part_mm"] = PointsJson(rim_part);
-    pj["rim_cam1_mm"] = PointsJson(rim_cam1);
-    truth["parts"].push_back(pj);
+    truth_parts.push_back(PartTruthJson(st, fmt::format("part_{:03d}", part.id), part, files));
   }
   summary.parts = static_cast<int>(parts.size());
   if (!parts.empty()) {
-    WriteTextFileAtomically(root / "pairs.csv", pairs_csv);
+    WriteTextFileAtomically(root / "pairs.csv", PairsCsvText(pairs));
     add("pairs.csv");
   }
-  WriteTextFileAtomically(root / "truth.json", truth.dump(1) + "\n");
+  WriteTextFileAtomically(root / "truth.json", TruthFileJson(st, options.seed, std::move(truth_parts)).dump(1) + "\n");
   add("truth.json");
   dir.Commit();
   return summary;

@@ -60,11 +60,11 @@ SimulatedPart SampleSimulatedPart(const Station& station, int id, Random& rng);
 // The same for a given part geometry (placement and shots only).
 SimulatedPart PlaceSimulatedPart(const Station& station, int id, PartGeometry geometry, Random& rng);
 
-// One 8-bit image of camera `camera` (0 left, 1 right).
-cv::Mat1b RenderPartImage(const Station& station, int camera, const PartGeometry& geometry,
+// One 8-bit image of one camera.
+cv::Mat1b RenderPartImage(const Station& station, RigSide camera, const PartGeometry& geometry,
                           const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers);
-cv::Mat1b RenderMarkerImage(const Station& station, int camera, uint64_t noise_seed);
-cv::Mat1b RenderBoardImage(const Station& station, int camera, const Rigid3d& support_from_board,
+cv::Mat1b RenderMarkerImage(const Station& station, RigSide camera, uint64_t noise_seed);
+cv::Mat1b RenderBoardImage(const Station& station, RigSide camera, const Rigid3d& support_from_board,
                            uint64_t noise_seed);
 // Random board poses fully visible in both cameras (board frame: origin at the
 // first square's outer corner, x along the inner-corner columns, z toward the cameras).

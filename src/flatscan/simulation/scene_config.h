@@ -66,6 +66,11 @@ struct MarkerSpec {
   double inset = 0.8;
 };
 
+// Chessboard pairs that the demo and `evaluate` render to calibrate a simulated station:
+// as many as OpenCV's stereo_calib sample has (left01..left14), so that our calibration
+// figures compare with the sample's.
+constexpr int kDefaultCalibrationPoses = 14;
+
 struct BoardSpec {
   std::array<int, 2> inner_corners = {9, 6};  // columns x rows of inner corners
   double square_mm = 2.5;

@@ -50,7 +50,7 @@ std::vector<Eigen::Vector3d> RectangleOutline(double hx, double hy, int per_side
 }  // namespace
 
 bool Station::VisibleInBoth(const std::vector<Eigen::Vector3d>& points, double margin_px) const {
-  for (int cam = 0; cam < 2; ++cam)
+  for (const RigSide cam : {RigSide::kLeft, RigSide::kRight})
     for (const Eigen::Vector3d& p : points) {
       const Eigen::Vector3d pc = CamFromSupport(cam) * p;
       if (pc.z() <= 0 || !GetCamera(cam).InImage(GetCamera(cam).Project(pc), margin_px)) return false;

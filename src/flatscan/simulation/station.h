@@ -26,8 +26,8 @@ struct Station {
   std::vector<Eigen::Vector2d> markers;  // marker centres on the support plane (mm)
   SupportPlane plane;                     // the true plane in the camera-1 frame
 
-  const Rigid3d& CamFromSupport(int camera) const { return camera == 0 ? cam1_from_support : cam2_from_support; }
-  const Camera& GetCamera(int camera) const { return camera == 0 ? rig.left : rig.right; }
+  const Rigid3d& CamFromSupport(RigSide side) const { return side == RigSide::kLeft ? cam1_from_support : cam2_from_support; }
+  const Camera& GetCamera(RigSide side) const { return rig.camera(side); }
   // True when every point (support frame) projects inside both images, `margin_px`
   // away from the border.
   bool VisibleInBoth(const std::vector<Eigen::Vector3d>& points, double margin_px) const;

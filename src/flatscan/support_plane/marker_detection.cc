@@ -20,16 +20,6 @@ struct EdgeCandidate {
 
 }  // namespace
 
-Eigen::Vector2d UndistortPixel(const Camera& camera, const Eigen::Vector2d& pixel) {
-  const Eigen::Vector2d xy = camera.PixelToNormalized(pixel);
-  return {camera.fx * xy.x() + camera.cx, camera.fy * xy.y() + camera.cy};
-}
-
-Eigen::Vector2d DistortPixel(const Camera& camera, const Eigen::Vector2d& undistorted) {
-  return camera.NormalizedToPixel(
-      {(undistorted.x() - camera.cx) / camera.fx, (undistorted.y() - camera.cy) / camera.fy});
-}
-
 MarkerDetection DetectRingMarkers(const cv::Mat1b& image, const Camera& camera, const MarkerDetectionOptions& options) {
   MarkerDetection out;
   out.boundary = DetectBoundary(image, options.boundary);
@@ -79,7 +69,7 @@ MarkerDetection DetectRingMarkers(const cv::Mat1b& image, const Camera& camera, 
       continue;
     }
     undistorted.clear();
-    for (const Eigen::Vector2d& p : raw) undistorted.push_back(UndistortPixel(camera, p));
+    for (const Eigen::Vector2d& p : raw) undistorted.push_back(camera.PixelToIdeal(p));
     EdgeCandidate cand;
     cand.contour = c;
     cand.outward = radial > 0;
@@ -121,7 +111,7 @@ MarkerDetection DetectRingMarkers(const cv::Mat1b& image, const Camera& camera, 
         continue;
       if (best < 0 || offset < best_offset) best = static_cast<int>(i), best_offset = offset;
     }
-    const Eigen::Vector2d outer_centroid_px = DistortPixel(camera, outer.fit.ellipse.centre);
+    const Eigen::Vector2d outer_centroid_px = camera.IdealToPixel(outer.fit.ellipse.centre);
     if (best < 0) {
       out.rejected.push_back({outer.contour, outer_centroid_px,
                               "dark ellipse without a concentric bright inner ellipse (not a ring marker)"});
@@ -143,8 +133,8 @@ MarkerDetection DetectRingMarkers(const cv::Mat1b& image, const Camera& camera, 
     m.centre_undistorted = *centre;
     m.naive_centre_undistorted = outer.fit.ellipse.centre;
     m.inner_centre_undistorted = inner.fit.ellipse.centre;
-    m.centre_px = DistortPixel(camera, m.centre_undistorted);
-    m.naive_centre_px = DistortPixel(camera, m.naive_centre_undistorted);
+    m.centre_px = camera.IdealToPixel(m.centre_undistorted);
+    m.naive_centre_px = camera.IdealToPixel(m.naive_centre_undistorted);
     m.radius_ratio = inner.Radius() / outer.Radius();
     m.outer_contour = outer.contour;
     m.inner_contour = inner.contour;
@@ -152,7 +142,7 @@ MarkerDetection DetectRingMarkers(const cv::Mat1b& image, const Camera& camera, 
   }
   for (size_t i = 0; i < candidates.size(); ++i) {
     if (candidates[i].outward || used[i]) continue;
-    out.rejected.push_back({candidates[i].contour, DistortPixel(camera, candidates[i].fit.ellipse.centre),
+    out.rejected.push_back({candidates[i].contour, camera.IdealToPixel(candidates[i].fit.ellipse.centre),
                             "bright ellipse without a dark ring around it (not a ring marker)"});
   }
 

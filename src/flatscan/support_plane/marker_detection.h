@@ -13,7 +13,7 @@
 //  2. Each contour: closed, at least `border_margin_px` from the image border (a
 //     marker cut by the border has open or border-touching contours), normals
 //     consistently outward or inward, enough points.
-//  3. The points are undistorted: p_u = K * PixelToNormalized(p), i.e. IDEAL pixel
+//  3. The points are undistorted: p_u = Camera::PixelToIdeal(p), the IDEAL pixel
 //     coordinates of a distortion-free camera with the same camera matrix K, where
 //     circles of the plane project to conics. Ellipses are fitted there
 //     (orthogonal-distance fit, conic.h) after leaving out a few outlying points (a
@@ -91,9 +91,5 @@ struct MarkerDetection {
 // match; the caller checks and reports it). Throws InputError for an invalid image.
 MarkerDetection DetectRingMarkers(const cv::Mat1b& image, const Camera& camera,
                                   const MarkerDetectionOptions& options = {});
-
-// Ideal (undistorted) pixel coordinates of a raw pixel, and back.
-Eigen::Vector2d UndistortPixel(const Camera& camera, const Eigen::Vector2d& pixel);
-Eigen::Vector2d DistortPixel(const Camera& camera, const Eigen::Vector2d& undistorted);
 
 }  // namespace flatscan

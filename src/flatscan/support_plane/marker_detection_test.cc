@@ -22,10 +22,10 @@ struct TiltedStation {
     scene.plane.tilt_deg = 10.0;
     scene.plane.tilt_azimuth_deg = 30.0;
     station = BuildStation(scene);
-    left = RenderMarkerImage(station, 0, 17);
+    left = RenderMarkerImage(station, RigSide::kLeft, 17);
   }
   // True image of marker k's centre in camera `camera` (raw pixels).
-  Eigen::Vector2d TrueCentre(int camera, int k) const {
+  Eigen::Vector2d TrueCentre(RigSide camera, int k) const {
     const Eigen::Vector2d& m = station.markers[k];
     return station.GetCamera(camera).Project(station.CamFromSupport(camera) * Eigen::Vector3d(m.x(), m.y(), 0));
   }
@@ -67,12 +67,12 @@ TEST(MarkerDetection, FindsTheFourRingsWithUnbiasedCentres) {
   for (const RingMarker& m : d.markers) {
     int best = 0;
     for (int k = 1; k < 4; ++k)
-      if ((t.TrueCentre(0, k) - m.centre_px).norm() < (t.TrueCentre(0, best) - m.centre_px).norm()) best = k;
+      if ((t.TrueCentre(RigSide::kLeft, k) - m.centre_px).norm() < (t.TrueCentre(RigSide::kLeft, best) - m.centre_px).norm()) best = k;
     truth_index.push_back(best);
   }
   for (int i = 0; i < 4; ++i) {
     const RingMarker& m = d.markers[i];
-    const Eigen::Vector2d truth = t.TrueCentre(0, truth_index[i]);
+    const Eigen::Vector2d truth = t.TrueCentre(RigSide::kLeft, truth_index[i]);
     const double corrected = (m.centre_px - truth).norm(), naive = (m.naive_centre_px - truth).norm();
     std::printf("marker %d at (%.1f, %.1f): corrected centre error %.4f px, naive %.4f px, fit rms %.3f / %.3f px, "
                 "radius ratio %.3f\n",

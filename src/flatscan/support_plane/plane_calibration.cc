@@ -7,7 +7,7 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
-#include "flatscan/flatness/flatness_metrics.h"
+#include "flatscan/geometry/plane_fit.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -84,7 +84,7 @@ double SupportPlaneFit::MaxAbsMm() const {
 
 SupportPlaneFit FitSupportPlaneTls(const std::vector<Eigen::Vector3d>& points) {
   FLATSCAN_CHECK(points.size() >= 3);
-  const PlaneFit tls = FitPlaneTotalLeastSquares(points);  // flatness_metrics.h
+  const PlaneFit tls = FitPlaneTotalLeastSquares(points);
   return MakeFit(points, tls.normal, tls.centroid);
 }
 
@@ -294,6 +294,65 @@ PlaneCalibration CalibratePlaneFromDetections(const StereoRig& rig, MarkerDetect
   out.plane.markers = points;
   out.plane.residuals_mm = out.tls.residuals_mm;
   return out;
+}
+
+namespace {
+
+nlohmann::json Json(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
+nlohmann::json Json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+nlohmann::json FitJson(const SupportPlaneFit& fit) {
+  return {{"normal", Json(fit.normal)}, {"point", Json(fit.point)}, {"residuals_mm", fit.residuals_mm}, {"rms_mm", fit.RmsMm()}};
+}
+
+nlohmann::json MarkerSideJson(const RingMarker& m, int index) {
+  return {{"index", index},
+          {"centre_px", Json(m.centre_px)},
+          {"naive_centre_px", Json(m.naive_centre_px)},
+          {"centre_shift_px", m.CentreShiftPx()},
+          {"outer_axes_px", {m.outer.ellipse.a, m.outer.ellipse.b}},
+          {"inner_axes_px", {m.inner.ellipse.a, m.inner.ellipse.b}},
+          {"outer_fit_rms_px", m.outer.rms_px},
+          {"inner_fit_rms_px", m.inner.rms_px},
+          {"radius_ratio", m.radius_ratio}};
+}
+
+nlohmann::json RejectedJson(const MarkerDetection& d) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RejectedContour& r : d.rejected) out.push_back({{"at_px", Json(r.centroid_px)}, {"reason", r.reason}});
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json PlaneCalibration::ToJson() const {
+  nlohmann::json markers = nlohmann::json::array();
+  for (const MatchedMarker& m : matched) {
+    markers.push_back({{"position_mm", Json(m.position)},
+                       {"residual_mm", m.residual_mm},
+                       {"epipolar_px", m.epipolar_px},
+                       {"reprojection_px", m.reprojection_px},
+                       {"left", MarkerSideJson(left.markers[m.left], m.left)},
+                       {"right", MarkerSideJson(right.markers[m.right], m.right)}});
+  }
+  nlohmann::json paper_json = FitJson(paper);
+  paper_json["r"] = Json(paper_r);
+  return {
+      {"normal", Json(plane.normal)},
+      {"point", Json(plane.point)},
+      {"residuals_mm", plane.residuals_mm},
+      {"markers_found", {{"left", left.markers.size()}, {"right", right.markers.size()}}},
+      {"markers_matched", matched.size()},
+      {"centre_correction", centre_correction},
+      {"plane_fit", "tls"},
+      {"tls_fit", FitJson(tls)},
+      {"paper_fit", paper_json},
+      {"normals_angle_deg", normals_angle_deg},
+      {"markers", markers},
+      {"rejected_outlines", {{"left", RejectedJson(left)}, {"right", RejectedJson(right)}}},
+      {"warnings", warnings},
+      {"frame", "camera 1 (left), mm; pixels: raw image coordinates, pixel centres at integers"},
+  };
 }
 
 }  // namespace flatscan

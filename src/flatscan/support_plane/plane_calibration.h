@@ -29,6 +29,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "flatscan/calibration/stereo_rig.h"
@@ -87,6 +88,15 @@ struct PlaneCalibration {
   std::vector<MatchedMarker> matched;
   MarkerDetection left, right;
   std::vector<std::string> warnings;
+
+  // The report: normal, point, residuals_mm, markers_found {left, right},
+  // markers_matched, centre_correction, plane_fit ("tls"), tls_fit and paper_fit
+  // {normal, point, residuals_mm, rms_mm; paper: r}, normals_angle_deg, markers [{position_mm,
+  // residual_mm, epipolar_px, reprojection_px, left, right: {index, centre_px,
+  // naive_centre_px, centre_shift_px, outer_axes_px, inner_axes_px, outer_fit_rms_px,
+  // inner_fit_rms_px, radius_ratio}}], rejected_outlines {left, right: [{at_px,
+  // reason}]}, warnings, frame.
+  nlohmann::json ToJson() const;
 };
 
 // Detects, matches, triangulates and fits. Throws InputError (naming the image) when an

@@ -44,8 +44,8 @@ const MarkerPair& RenderedPair(double tilt_deg, double azimuth_deg, const std::s
     MarkerPair p;
     p.station = BuildStation(scene);
     const uint64_t seed = 100 + static_cast<uint64_t>(tilt_deg * 10 + azimuth_deg);
-    p.left = RenderMarkerImage(p.station, 0, seed);
-    p.right = RenderMarkerImage(p.station, 1, seed + 1);
+    p.left = RenderMarkerImage(p.station, RigSide::kLeft, seed);
+    p.right = RenderMarkerImage(p.station, RigSide::kRight, seed + 1);
     p.left_detection = DetectRingMarkers(p.left, p.station.rig.left);
     p.right_detection = DetectRingMarkers(p.right, p.station.rig.right);
     it = cache.emplace(key, std::move(p)).first;
@@ -69,7 +69,7 @@ PlaneErrors ErrorsOf(const Station& station, const Eigen::Vector3d& normal, cons
 }
 
 // Marker centres of the true station as detections (no image): for the matching.
-MarkerDetection SyntheticDetection(const Station& station, int camera, const std::vector<int>& order) {
+MarkerDetection SyntheticDetection(const Station& station, RigSide camera, const std::vector<int>& order) {
   MarkerDetection d;
   const Camera& cam = station.GetCamera(camera);
   for (int k : order) {
@@ -77,7 +77,7 @@ MarkerDetection SyntheticDetection(const Station& station, int camera, const std
     RingMarker r;
     r.centre_px = cam.Project(station.CamFromSupport(camera) * Eigen::Vector3d(m.x(), m.y(), 0));
     r.naive_centre_px = r.centre_px;
-    r.centre_undistorted = UndistortPixel(cam, r.centre_px);
+    r.centre_undistorted = cam.PixelToIdeal(r.centre_px);
     r.naive_centre_undistorted = r.centre_undistorted;
     d.markers.push_back(r);
   }
@@ -135,8 +135,8 @@ TEST(PlaneCalibration, PlaneFitsAndTriangulationAreExact) {
 TEST(PlaneCalibration, MatchesMarkersByEpipolarLinesAndOrder) {
   const Station station = BuildStation(ScenePreset("paper"));
   // Different detection orders in the two images, a missing marker, a stray one.
-  const MarkerDetection left = SyntheticDetection(station, 0, {0, 1, 3, 2});
-  MarkerDetection right = SyntheticDetection(station, 1, {3, 2, 0, 1});
+  const MarkerDetection left = SyntheticDetection(station, RigSide::kLeft, {0, 1, 3, 2});
+  MarkerDetection right = SyntheticDetection(station, RigSide::kRight, {3, 2, 0, 1});
   PlaneCalibration cal = CalibratePlaneFromDetections(station.rig, left, right);
   ASSERT_EQ(cal.matched.size(), 4u);
   const std::vector<int> left_order = {0, 1, 3, 2}, right_order = {3, 2, 0, 1};

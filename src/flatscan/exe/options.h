@@ -1,0 +1,69 @@
+#pragma once
+// Options that several commands share: one name, one default and one help text each.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "flatscan/flatness/verdict.h"
+#include "flatscan/simulation/scene_config.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+
+// -o,--output: what the command writes (`what`, e.g. "rig file to write").
+inline CLI::Option* AddOutputOption(CLI::App* sub, std::string* path, const std::string& what) {
+  return sub->add_option("-o,--output", *path, what);
+}
+
+// --seed: every random choice derives from it.
+inline CLI::Option* AddSeedOption(CLI::App* sub, uint64_t* seed) {
+  return sub->add_option("--seed", *seed, "random seed (the same seed gives the same result)")->default_val(*seed);
+}
+
+// --tolerance: the flatness tolerance (flatness/verdict.h owns its default).
+inline CLI::Option* AddToleranceOption(CLI::App* sub, double* tolerance_mm) {
+  *tolerance_mm = FlatnessSpec::kDefaultToleranceMm;
+  return sub->add_option("--tolerance", *tolerance_mm, "flatness tolerance, mm: a part fails above it")
+      ->default_val(*tolerance_mm)
+      ->check(CLI::PositiveNumber);
+}
+
+// --no-thickness-correction: triangulate as if the sheet had no thickness.
+inline CLI::Option* AddNoThicknessCorrectionFlag(CLI::App* sub, bool* no_correction) {
+  return sub->add_flag("--no-thickness-correction", *no_correction,
+                       "triangulate the silhouettes as if the sheet had no thickness (to see what the correction "
+                       "removes)");
+}
+
+// --preset / --scene: the simulated station.
+inline void AddSceneOptions(CLI::App* sub, std::string* preset, std::string* scene_file) {
+  auto* p = sub->add_option("--preset", *preset, "built-in scene: paper (docs/design.md, the reference rig) or compact")
+                ->default_val(*preset);
+  sub->add_option("--scene", *scene_file, "scene file (YAML or JSON) overriding any parameter; see docs/simulator.md")
+      ->excludes(p);
+}
+
+// --calib-poses: chessboard pairs rendered for the rig calibration (the simulation's
+// default, kDefaultCalibrationPoses).
+inline CLI::Option* AddCalibrationPosesOption(CLI::App* sub, int* poses) {
+  *poses = kDefaultCalibrationPoses;
+  return sub->add_option("--calib-poses", *poses, "chessboard pairs for the rig calibration")
+      ->default_val(*poses)
+      ->check(CLI::Range(3, 200));
+}
+
+// Fails early (before minutes of work) when the folder an output goes into does not exist.
+inline void CheckOutputFolder(const std::filesystem::path& path, const std::string& option) {
+  const std::filesystem::path parent = path.has_parent_path() ? path.parent_path() : ".";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(parent, ec))
+    ThrowInputError("{} '{}': the folder '{}' does not exist", option, path.string(), parent.string());
+}
+
+inline SceneConfig LoadScene(const std::string& preset, const std::string& scene_file) {
+  return scene_file.empty() ? ScenePreset(preset) : LoadSceneFile(scene_file);
+}
+
+}  // namespace flatscan
