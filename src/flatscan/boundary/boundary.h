@@ -1,5 +1,5 @@
 #pragma once
-// Sub-pixel boundary detection (DESIGN section 2, step 2; paper section 2.2).
+// Sub-pixel boundary detection (docs/design.md, Step 2; paper section 2.2).
 //
 // Pipeline: Canny gives integer edge pixels (our fused implementation, canny.h, with
 // cv::Canny's decisions), restricted to a band around the part found on a 4x reduced

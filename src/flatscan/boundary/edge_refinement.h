@@ -10,10 +10,11 @@
 //    take the centroid under a Gaussian window re-centred on the estimate (a fixed
 //    point that stays unbiased for symmetric profiles and ignores the noise of far
 //    pixels, which an unweighted centroid would amplify).
-// 2. Local quadratic fit along the chain. Each point is replaced by the value at its
-//    own tangent position of a least-squares quadratic through its 5 chain neighbours
-//    (normal coordinate eta = a + b tau + c tau^2); this averages noise and gives the
-//    normal (from b) and the curvature (2c).
+// 2. Local circle fit along the chain. Each point is replaced by the value at its own
+//    tangent position of a least-squares circle through its 13 chain neighbours
+//    (normal coordinate eta = a + b tau + c (tau^2 + eta^2), linear in a, b, c and
+//    exact for circles and lines); this averages noise and gives the normal (from b)
+//    and the curvature (2c / sqrt(1 + b^2)).
 // 3. Curvature correction. A curved edge blurred by a kernel of variance s^2 (PSF plus
 //    pixel box, along the tangent) has its 50% contour shifted toward the concave
 //    side by c s^2, and the row profile of a curved edge is skewed, moving its

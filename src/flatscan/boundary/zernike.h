@@ -12,7 +12,7 @@
 // so l = M20 / |M|, h = 3 |M| / (2 (1 - l^2)^{3/2}) and the edge point is
 //   centre + 3.5 l (cos theta, sin theta).
 // theta comes from the first-order moment (Z11): taking it from Z31, as some public
-// code does, is wrong. Under blur the operator underestimates |l| (DESIGN section 2).
+// code does, is wrong. Under blur the operator underestimates |l| (docs/design.md section 6.1).
 #include <opencv2/core.hpp>
 
 namespace flatscan {

@@ -1,7 +1,7 @@
 #pragma once
 // Sparse rectification: maps individual sub-pixel points between a camera's raw
 // (distorted) image and its rectified image, instead of remapping whole images
-// (about 9x cheaper, docs/design.md "Physics traps": detect on the raw image, then
+// (about 9x cheaper, docs/design.md section 6.3: detect on the raw image, then
 // rectify points). This is the one implementation: the inspection, the matcher and
 // the triangulation all go through it.
 //

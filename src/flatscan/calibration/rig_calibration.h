@@ -1,5 +1,5 @@
 #pragma once
-// Stereo rig calibration from chessboard image pairs (DESIGN section 2, step 1).
+// Stereo rig calibration from chessboard image pairs (docs/design.md, Step 1).
 //
 //   1. Pair the left and right images by sorted file name.
 //   2. In each image find the board's inner corners (cv::findChessboardCorners, on a

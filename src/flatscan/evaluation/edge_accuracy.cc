@@ -388,7 +388,7 @@ std::vector<EdgeAccuracyRow> RunEdgeAccuracy(const EdgeAccuracyOptions& options)
 
 std::string FormatEdgeAccuracyMarkdown(const std::vector<EdgeAccuracyRow>& rows) {
   std::string out;
-  // DESIGN section 6 summary: blur 1.0 / noise 2.
+  // docs/design.md section 8 summary: blur 1.0 / noise 2.
   std::map<std::pair<int, int>, const EdgeAccuracyRow*> summary;  // (method, shape)
   std::vector<EdgeMethod> methods;
   for (const EdgeAccuracyRow& r : rows) {
@@ -397,7 +397,7 @@ std::string FormatEdgeAccuracyMarkdown(const std::vector<EdgeAccuracyRow>& rows)
       summary[{int(r.method), int(r.shape)}] = &r;
   }
   if (!summary.empty()) {
-    out += "RMS error (px) at blur sigma 1.0 px, noise sigma 2 grey (DESIGN section 6):\n\n";
+    out += "RMS error (px) at blur sigma 1.0 px, noise sigma 2 grey (docs/design.md section 8):\n\n";
     out += "| method | lines | circles | circles r=5 |\n|---|---|---|---|\n";
     for (EdgeMethod m : methods) {
       out += fmt::format("| {} |", EdgeMethodName(m));
@@ -444,7 +444,7 @@ nlohmann::json EdgeAccuracyToJson(const std::vector<EdgeAccuracyRow>& rows) {
     j["worst_coverage"] = r.worst_coverage;
     j["outliers"] = r.errors.outliers;
     j["normal_rms_deg"] = r.NormalRmsDeg();
-    j["seconds"] = r.seconds;
+    j["time_s"] = r.seconds;
     out.push_back(j);
   }
   return out;
@@ -475,7 +475,7 @@ std::vector<EdgeTargetCheck> CheckEdgeTargets(const std::vector<EdgeAccuracyRow>
       add(name(r) + ": max error px", r.errors.points > 0 ? r.errors.max_error : kNone, -kNone, 0.5);
       if (r.shape == EdgeShape::kSmallCircles) add(name(r) + ": bias px", r.Bias(), -0.03, 0.03);
     } else if ((straight || circles) && at(r, 1.0, 2.0)) {
-      // Reference rows (DESIGN section 6: Canny about 0.36 px, Zernike 0.10 / 0.12 px).
+      // Reference rows (docs/design.md section 8: Canny about 0.36 px, Zernike 0.10 / 0.12 px).
       if (r.method == EdgeMethod::kCannyPixel) add("reference " + name(r) + ": RMS px", r.Rms(), 0.2, 0.5);
       if (r.method == EdgeMethod::kZernike) add("reference " + name(r) + ": RMS px", r.Rms(), 0.05, 0.2);
     }

@@ -1,5 +1,5 @@
 #pragma once
-// Accuracy harness for the sub-pixel boundary detector (issue 3, DESIGN section 6).
+// Accuracy harness for the sub-pixel boundary detector (docs/design.md section 8, "Figures to beat").
 //
 // Synthetic images with exact area coverage, made with the project's own renderer
 // (RenderCoverage of a PlanarOccluder) seen by a distortion-free camera looking straight

@@ -286,7 +286,7 @@ std::string Describe(const EdgeAccuracyRow& r) {
                      r.errors.outliers, r.failed_images);
 }
 
-TEST(EdgeAccuracy, ReferenceRowsBehaveAsDesignSection6Says) {
+TEST(EdgeAccuracy, ReferenceRowsBehaveAsTheFiguresToBeatSay) {
   // Pixel-level Canny about 0.36 px, plain Zernike about 0.10 / 0.12 px at blur 1 / noise 2;
   // if these drift, the harness (not the detector) is suspect.
   for (EdgeShape shape : {EdgeShape::kLines, EdgeShape::kCircles}) {

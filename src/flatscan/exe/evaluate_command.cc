@@ -150,7 +150,7 @@ class EvaluateCommand : public Command {
       WriteImage((root / "rotation_coverage.png").string(), RotationChart(study));
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    json["total_seconds"] = seconds;
+    json["total_time_s"] = seconds;
     WriteTextFileAtomically(root / "report.md", md);
     WriteTextFileAtomically(root / "evaluation.json", json.dump(1) + "\n");
     dir.Commit();

@@ -39,7 +39,7 @@ inline CLI::Option* AddNoThicknessCorrectionFlag(CLI::App* sub, bool* no_correct
 
 // --preset / --scene: the simulated station.
 inline void AddSceneOptions(CLI::App* sub, std::string* preset, std::string* scene_file) {
-  auto* p = sub->add_option("--preset", *preset, "built-in scene: paper (docs/design.md, the reference rig) or compact")
+  auto* p = sub->add_option("--preset", *preset, "built-in scene: paper (docs/design.md section 4) or compact")
                 ->default_val(*preset);
   sub->add_option("--scene", *scene_file, "scene file (YAML or JSON) overriding any parameter; see docs/simulator.md")
       ->excludes(p);

@@ -1,5 +1,5 @@
 #pragma once
-// The three flatness quantities of DESIGN section 3, over the bottom rim points of a
+// The three flatness quantities of docs/conventions.md, over the bottom rim points of a
 // part, all in mm.
 //   flatness_mm : max over points of the height above the support plane (the
 //                 paper's quantity; seating-plane height, JEDEC JESD22-B108).

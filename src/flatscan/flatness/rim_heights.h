@@ -1,13 +1,13 @@
 #pragma once
 // Heights of a part's bottom rim estimated from its measured points, so that the
-// largest one (flatness_mm, DESIGN section 3) is the part's and not the noise's.
+// largest one (flatness_mm, docs/conventions.md) is the part's and not the noise's.
 //
 // Model, in support-plane coordinates (x, y) and arc length s along the rim:
 //
 //   h(p) = W(x, y) + D(s)
 //
 // W is the sheet's warp: a cubic polynomial (bending, twist and low-order terms plus
-// the rest tilt, DESIGN section 5), fitted by robust weighted least squares to the
+// the rest tilt, docs/design.md section 5), fitted by robust weighted least squares to the
 // whole rim and to the hole edges (the same sheet, with their own offset). Thousands
 // of points fix its ten coefficients, so its maximum carries almost no noise.
 //

@@ -47,7 +47,7 @@ std::vector<Eigen::Vector2d> Outline(double step) {
   return out;
 }
 
-// A warp of the kind DESIGN section 5 simulates: bending, twist, low-order terms
+// A warp of the kind docs/design.md section 5 simulates: bending, twist, low-order terms
 // (mm), resting on the plane.
 double Warp(const Eigen::Vector2d& p) {
   const double x = p.x() / 8, y = p.y() / 5;

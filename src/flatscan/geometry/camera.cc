@@ -85,6 +85,12 @@ Eigen::Vector2d Camera::Distort(const Eigen::Vector2d& xy) const {
   return DistortWithJacobian(dist, xy, nullptr);
 }
 
+Eigen::Matrix2d Camera::DistortionJacobian(const Eigen::Vector2d& xy) const {
+  Eigen::Matrix2d jacobian;
+  DistortWithJacobian(dist, xy, &jacobian);
+  return jacobian;
+}
+
 Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xy_distorted) const {
   return Undistort(xy_distorted, xy_distorted);
 }
@@ -100,9 +106,11 @@ Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xy_distorted,
                                (jac(0, 0) * residual.y() - jac(1, 0) * residual.x()) / det);
     xy -= step;
     // Newton converges quadratically: a step below 1e-12 leaves an error of the order
-    // of its square. Beyond the fold of the lens model (det <= 0) a solution of the
-    // equation exists but is not the ray the pixel saw.
-    if (step.squaredNorm() < 1e-24) return det > 0 ? xy : Eigen::Vector2d::Constant(kNaN);
+    // of its square. A solution beyond the fold of the lens model (det <= 0), or one
+    // the model turned through the origin (a negative radial factor: r (1 + k1 r^2) < 0
+    // for a strong negative k1), satisfies the equation but is not the ray the pixel saw.
+    if (step.squaredNorm() < 1e-24)
+      return det > 0 && xy.dot(xy_distorted) >= 0 ? xy : Eigen::Vector2d::Constant(kNaN);
   }
   return Eigen::Vector2d::Constant(kNaN);
 }

@@ -35,7 +35,8 @@
 //   4. The simulator needs nothing: it renders through Distort / Undistort.
 //   5. Tests in geometry/camera_test.cc: Distort against cv::projectPoints, the
 //      Jacobian against finite differences, the Newton round trip over the whole
-//      image, the fold, and a rig file round trip (io/rig_file_test.cc).
+//      image and against cv::undistortPoints, the fold; and a rig file round trip
+//      (io/rig_file_test.cc).
 #include <array>
 #include <string>
 
@@ -69,12 +70,15 @@ struct Camera {
 
   // Normalized undistorted -> normalized distorted (the model above).
   Eigen::Vector2d Distort(const Eigen::Vector2d& xy) const;
+  // d(x_d, y_d) / d(x, y), analytic. Its determinant is positive wherever the model is
+  // one-to-one.
+  Eigen::Matrix2d DistortionJacobian(const Eigen::Vector2d& xy) const;
   // Inverse of Distort by Newton's method with the analytic Jacobian, iterated until a
   // step is below 1e-12 (1e-8 px at f = 10^4 px). `guess` may seed the iteration.
   // Returns (NaN, NaN) where the model cannot be inverted: Newton does not settle, or
   // it settles beyond the radius where the distortion folds back on itself (the
-  // Jacobian's determinant is not positive there, so the solution is not the physical
-  // ray).
+  // Jacobian's determinant is not positive there) or on a ray the model turns through
+  // the origin (a negative radial factor): such solutions are not the physical ray.
   Eigen::Vector2d Undistort(const Eigen::Vector2d& xy_distorted) const;
   Eigen::Vector2d Undistort(const Eigen::Vector2d& xy_distorted, const Eigen::Vector2d& guess) const;
 

@@ -146,6 +146,9 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     }
   }
   result.values = ComputeFlatness(rim_all, heights_all);
+  if (!std::isfinite(result.values.flatness_mm) || !std::isfinite(result.values.minzone_mm))
+    ThrowInputError("{} and {}: the rim's heights could not be computed (not finite): check the rig and plane files",
+                    left_name, right_name);
   timer.Mark("flatness");
   return result;
 }

@@ -1,5 +1,5 @@
 #pragma once
-// Inspection of one part from a stereo pair (docs/design.md, "The pipeline"): sub-pixel
+// Inspection of one part from a stereo pair (docs/design.md section 2): sub-pixel
 // boundaries on the raw images, crossings with the rectified rows, fused-cost matching,
 // thickness-aware triangulation, radius outlier removal, heights above the support
 // plane and the three flatness values. It measures; it does not judge: the verdict

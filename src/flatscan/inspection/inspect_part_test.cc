@@ -14,28 +14,16 @@
 
 #include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/dataset.h"
+#include "flatscan/simulation/simulation_test_util.h"
 #include "flatscan/util/error.h"
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
 namespace {
 
-struct RenderedPart {
-  SimulatedPart part;
-  cv::Mat1b left, right;
-};
-
-// Both cameras' images of `g` at `pose`, noise seeds `seed` and `seed` + 1.
-std::pair<cv::Mat1b, cv::Mat1b> RenderPair(const Station& st, const PartGeometry& g, const Rigid3d& pose, uint64_t seed) {
-  return {RenderPartImage(st, RigSide::kLeft, g, pose, seed, false), RenderPartImage(st, RigSide::kRight, g, pose, seed + 1, false)};
-}
-
-RenderedPart Render(const Station& st, int id, Random& rng, uint64_t seed) {
-  RenderedPart r;
-  r.part = SampleSimulatedPart(st, id, rng);
-  std::tie(r.left, r.right) = RenderPair(st, r.part.geometry, r.part.shots[0].truth.support_from_part, seed);
-  return r;
-}
+using testing::RenderedPair;
+using testing::RenderPair;
+using testing::RenderRandomPart;
 
 using testing::InputErrorOf;
 
@@ -46,7 +34,7 @@ TEST(InspectPart, FlatnessWithinMicronsAndThicknessCorrectionMatters) {
   Random rng(11);
   std::vector<double> errors, uncorrected;
   for (int i = 0; i < 6; ++i) {
-    const RenderedPart rp = Render(st, i, rng, 1100 + 2 * i);
+    const RenderedPair rp = RenderRandomPart(st, i, rng, 1100 + 2 * i);
     InspectionParams params;
     params.thickness_mm = rp.part.geometry.SideHeight();
     const InspectionResult res = InspectPart(st.rig, st.plane, rp.left, rp.right, params);
@@ -107,7 +95,7 @@ TEST(InspectPart, CompactRigCornersAndRowParallelSides) {
   Random rng(23);
   std::vector<double> errors;
   for (int i = 0; i < 8; ++i) {
-    const RenderedPart rp = Render(st, i, rng, 2300 + 2 * i);
+    const RenderedPair rp = RenderRandomPart(st, i, rng, 2300 + 2 * i);
     InspectionParams params;
     params.thickness_mm = rp.part.geometry.SideHeight();
     const InspectionResult res = InspectPart(st.rig, st.plane, rp.left, rp.right, params);
@@ -122,7 +110,7 @@ TEST(InspectPart, CompactRigCornersAndRowParallelSides) {
   EXPECT_LT(errors.back(), 0.012);
 }
 
-// Coverage against the part's rotation to the camera baseline (DESIGN section 2: a
+// Coverage against the part's rotation to the camera baseline (docs/design.md section 6.6: a
 // side along the epipolar rows gives no depth). Turned 5 or 30 degrees, the whole
 // outline is measured; turned 1 degree, the two sides along the rows are not, and
 // are completed from the warp surface (reported by coverage and `completed`).
@@ -156,7 +144,7 @@ TEST(InspectPart, CoverageAgainstRotationToTheBaseline) {
 TEST(InspectPart, UnmeasurablePairsSayWhy) {
   const Station st = BuildStation(ScenePreset("paper"));
   Random rng(5);
-  const RenderedPart rp = Render(st, 0, rng, 77);
+  const RenderedPair rp = RenderRandomPart(st, 0, rng, 77);
   InspectionParams params;
   params.thickness_mm = rp.part.geometry.SideHeight();
   auto inspect = [&](const cv::Mat1b& l, const cv::Mat1b& r) {

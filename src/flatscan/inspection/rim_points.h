@@ -1,5 +1,5 @@
 #pragma once
-// Second half of the inspection's geometry (DESIGN section 2, steps 4-5): the matched
+// Second half of the inspection's geometry (docs/design.md, Steps 5-6): the matched
 // crossings triangulated with the sheet's thickness taken into account, radius
 // outliers removed, the points near a camera's view turning across the side face
 // dropped, and the side faces' direction estimated from the part itself.

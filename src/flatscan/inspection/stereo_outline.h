@@ -1,5 +1,5 @@
 #pragma once
-// First half of the inspection (DESIGN section 2, steps 2-3): the part's sub-pixel
+// First half of the inspection (docs/design.md, Steps 2-4): the part's sub-pixel
 // boundary in both raw images, checked (one part, fully in view, well exposed, the
 // images fitting the rig and not swapped), cut by the rectified rows (only points are
 // rectified, never images) and matched row by row with the fused cost.

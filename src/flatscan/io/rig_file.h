@@ -1,5 +1,5 @@
 #pragma once
-// Rig and plane files: OpenCV FileStorage YAML (DESIGN section 3).
+// Rig and plane files: OpenCV FileStorage YAML (docs/conventions.md).
 //
 // Rig file keys: image_width, image_height (int); M1, D1, M2, D2 (camera matrices and
 // distortion vectors, 1xN or Nx1 with N in {4, 5, 8}); R (3x3), T (3x1, mm) with

@@ -23,7 +23,7 @@ namespace flatscan {
 namespace {
 namespace fs = std::filesystem;
 
-// A rig like the reference one (DESIGN section 4): convergent, baseline 60 mm; camera 1
+// A rig like the reference one (docs/design.md section 4): convergent, baseline 60 mm; camera 1
 // with the rational model, camera 2 with five coefficients.
 StereoRig ReferenceRig() {
   StereoRig rig;
@@ -126,7 +126,7 @@ class RawFile {
   std::vector<std::pair<std::string, Value>> entries_;
 };
 
-// The keys of a rig file as DESIGN section 3 lists them.
+// The keys of a rig file as docs/conventions.md lists them.
 RawFile RigKeys(const StereoRig& rig, bool with_rectification) {
   RawFile f;
   f.Set("image_width", rig.left.width).Set("image_height", rig.left.height);

@@ -3,7 +3,7 @@
 // rectification.h: rectified frame 1, X_rect1 = R1 X_cam1), with the part's thickness
 // taken into account.
 //
-// Thickness (docs/design.md, "Thickness"): against a backlight each camera's silhouette is the
+// Thickness (docs/design.md, Step 5 and section 6.4): against a backlight each camera's silhouette is the
 // bottom or the top edge of the sheet's side face: the bottom edge when the camera
 // lies on the outer side of the side face (it sees the face), the top edge
 // (bottom + t S, S the direction of the side face, toward the cameras) otherwise.

@@ -1,6 +1,7 @@
 #include "flatscan/reconstruction/rectified_stereo.h"
 
 #include <cmath>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -75,6 +76,36 @@ TEST(TriangulateBottomPoint, ExactOnASlopedCornerWhereTheCamerasSeeDifferentEdge
   }
   EXPECT_GT(tested, 10);
 }
+
+// The rectified geometry (RectifiedStereo) is the one the point mappings use: a scene
+// point's two rectified images triangulate back to it, and its disparity is the one
+// Disparity() predicts.
+class TriangulateRowPresets : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(TriangulateRowPresets, RecoversWhatTheRectifiedCamerasSee) {
+  const Station station = BuildStation(ScenePreset(GetParam()));
+  const StereoRectification rectification(station.rig);
+  const RectifiedStereo& s = rectification.stereo();
+  EXPECT_EQ(&rectification.side(RigSide::kLeft), &rectification.left());
+  EXPECT_EQ(&rectification.side(RigSide::kRight), &rectification.right());
+  int checked = 0;
+  for (double x = -1; x <= 1; x += 0.5)
+    for (double y = -1; y <= 1; y += 0.5)
+      for (double z : {0.0, 2.0}) {
+        const Eigen::Vector3d p1 = station.cam1_from_support *
+                                   Eigen::Vector3d(x * station.common_half_size.x(), y * station.common_half_size.y(), z);
+        const Eigen::Vector2d l = rectification.left().RawToRectified(station.rig.left.Project(p1));
+        const Eigen::Vector2d r =
+            rectification.right().RawToRectified(station.rig.right.Project(station.rig.cam2_from_cam1 * p1));
+        const Eigen::Vector3d p_rect1 = s.rect1_from_cam1 * p1;
+        EXPECT_NEAR(l.x() - r.x(), s.Disparity(p_rect1), 1e-6);
+        EXPECT_LT((TriangulateRow(s, l.x(), r.x(), l.y()) - p_rect1).norm(), 1e-6);
+        ++checked;
+      }
+  EXPECT_EQ(checked, 50);
+}
+
+INSTANTIATE_TEST_SUITE_P(RectifiedStereo, TriangulateRowPresets, ::testing::Values("paper", "compact"));
 
 }  // namespace
 }  // namespace flatscan

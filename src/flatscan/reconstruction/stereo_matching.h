@@ -17,7 +17,7 @@
 //          contour (lambda (x_L - x_R) when there are none, lambda = 1: no penalty).
 // Winner takes all, then a left-right check keeps only mutual best matches.
 // Crossings where the boundary runs within asin(min_abs_nx) of the rows are not
-// matched: there the row crossing is ill-conditioned (DESIGN section 2).
+// matched: there the row crossing is ill-conditioned (docs/design.md section 6.6).
 #include <functional>
 #include <vector>
 

@@ -2,7 +2,7 @@
 // Exact area coverage of an occluder in a camera image.
 //
 // Pixel (u, v) covers the square [u - 0.5, u + 0.5] x [v - 0.5, v + 0.5] (pixel centres
-// at integers, DESIGN section 3). Its coverage is the fraction of that square whose
+// at integers, docs/conventions.md). Its coverage is the fraction of that square whose
 // rays, through the distorted camera model, hit the occluder.
 //
 // Pixels far from the silhouette (|signed distance| larger than the pixel's extent,

@@ -1,7 +1,7 @@
 #pragma once
 // `flatscan simulate`: renders a whole inspection dataset into a folder.
 //
-//   rig.yml                   the true rig (DESIGN section 3 format)
+//   rig.yml                   the true rig (docs/conventions.md format)
 //   plane_true.yml            the true support plane (camera-1 frame)
 //   scene.json                the fully resolved scene parameters
 //   calib/left_NN.png ...     front-lit chessboard pairs; calib/board.json: pattern,

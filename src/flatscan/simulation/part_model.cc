@@ -342,10 +342,10 @@ nlohmann::json PartGeometryToJson(const PartGeometry& g) {
   j["thickness_mm"] = g.thickness;
   j["wall_height_mm"] = g.wall_height;
   j["holes"] = nlohmann::json::array();
-  for (const Hole& h : g.holes) j["holes"].push_back({{"center_mm", {h.center.x(), h.center.y()}}, {"radius_mm", h.radius}});
+  for (const Hole& h : g.holes) j["holes"].push_back({{"centre_mm", {h.center.x(), h.center.y()}}, {"radius_mm", h.radius}});
   j["notches"] = nlohmann::json::array();
   for (const Notch& n : g.notches)
-    j["notches"].push_back({{"center_mm", {n.center.x(), n.center.y()}}, {"half_size_mm", {n.half_size.x(), n.half_size.y()}}});
+    j["notches"].push_back({{"centre_mm", {n.center.x(), n.center.y()}}, {"half_size_mm", {n.half_size.x(), n.half_size.y()}}});
   j["warp_mm"] = {{"bend_x", g.warp.bend_x}, {"bend_y", g.warp.bend_y}, {"twist", g.warp.twist},
                   {"c30", g.warp.c30},       {"c21", g.warp.c21},       {"c12", g.warp.c12},
                   {"c03", g.warp.c03}};

@@ -12,7 +12,7 @@
 // each coefficient in mm (constant and linear terms are rigid motions and omitted).
 //
 // The bottom rim is the outer outline's bottom edge: the curve the part stands on,
-// and the set over which flatness is defined (DESIGN section 3).
+// and the set over which flatness is defined (docs/conventions.md).
 #include <array>
 #include <vector>
 
@@ -92,7 +92,7 @@ class PartOccluder : public Occluder {
   Rigid3d part_from_support_;
 };
 
-// Truth of a placed part (DESIGN section 5): computed from the geometry only.
+// Truth of a placed part (docs/design.md section 5): computed from the geometry only.
 struct PartTruth {
   Rigid3d support_from_part;         // rest pose and placement
   std::array<int, 3> contacts{};     // indices into the bottom-surface samples
@@ -108,7 +108,7 @@ struct PartTruth {
 PartTruth RestAndPlacePart(const PartGeometry& geometry, double rotation_deg,
                            const Eigen::Vector2d& position);
 
-// The same part with its warp scaled so that its true flatness_mm (at rest, DESIGN
+// The same part with its warp scaled so that its true flatness_mm (at rest, docs/design.md
 // section 5) is `flatness_mm` to within 1e-7 mm. Scaling the warp scales every rim
 // height about the same three contacts, so a few secant steps converge. A part with
 // no warp first gets a unit bend in x. Throws std::invalid_argument for a negative

@@ -121,7 +121,7 @@ struct SceneConfig {
   DatasetSpec dataset;
 };
 
-// Names of the built-in presets ("paper": DESIGN section 4; "compact": a 1920x1200,
+// Names of the built-in presets ("paper": docs/design.md section 4; "compact": a 1920x1200,
 // 12 mm lens, 40 mm baseline rig with stronger distortion).
 std::vector<std::string> ScenePresetNames();
 // Throws InputError "unknown preset 'x' (expected one of: paper, compact)".

@@ -1,5 +1,5 @@
 #pragma once
-// Conics and ellipses for the support-plane markers (DESIGN section 2, "Known traps").
+// Conics and ellipses for the support-plane markers (docs/design.md, Step 7 and section 6.2).
 //
 // A conic is a symmetric 3x3 matrix C: the points x = (u, v, 1) with x^T C x = 0.
 // Under a plane-to-image homography H (x_img ~ H x_plane) a conic maps as

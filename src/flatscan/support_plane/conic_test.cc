@@ -13,7 +13,7 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-// A pinhole camera (DESIGN section 4: f = 25 mm / 2.2 um) looking at a plane 200 mm
+// A pinhole camera (docs/design.md section 4: f = 25 mm / 2.2 um) looking at a plane 200 mm
 // away, tilted by `tilt_deg` about an in-plane axis at `azimuth_deg`.
 struct PlaneView {
   Eigen::Matrix3d k;
@@ -200,7 +200,7 @@ TEST(Conic, GeometricFitIsUnbiasedOnPartialArcs) {
 }
 
 // The corrected centre from two concentric circles is exact (analytic conics), the
-// ellipse centre is not: DESIGN section 2 gives 0.30 px at 10 deg and 0.57 px at 20
+// ellipse centre is not: docs/design.md section 6.2 gives 0.30 px at 10 deg and 0.57 px at 20
 // deg for a 2.5 mm ring at 200 mm with a 25 mm lens.
 TEST(Conic, ConcentricCirclesCentreIsExact) {
   const std::pair<double, double> design[] = {{10.0, 0.30}, {20.0, 0.57}};

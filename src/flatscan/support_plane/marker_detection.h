@@ -1,5 +1,5 @@
 #pragma once
-// Concentric-ring plane markers in a backlit image (DESIGN section 2 step 5; paper
+// Concentric-ring plane markers in a backlit image (docs/design.md, Step 7; paper
 // section 2.4): a transparent disc inside a black ring, on the bright backlight.
 //
 // Each marker has two closed ring edges. With edge normals pointing from dark to

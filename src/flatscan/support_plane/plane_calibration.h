@@ -1,6 +1,6 @@
 #pragma once
 // Support-plane calibration from one backlit image pair of the concentric-ring
-// markers (DESIGN section 2 step 5; paper section 2.4, eq. 2.11-2.12).
+// markers (docs/design.md, Step 7; paper section 2.4, eq. 2.11-2.12).
 //
 //  1. Markers in each image (marker_detection.h): the image of each ring's centre,
 //     from its two edge conics (or, without the centre correction, the outer

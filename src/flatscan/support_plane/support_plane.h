@@ -1,7 +1,7 @@
 #pragma once
 // The support plane (backlight) in the camera-1 frame.
 // Height of a point p (mm, camera-1 frame):  h(p) = normal . (p - point),
-// with `normal` a unit vector pointing toward the cameras (DESIGN section 3).
+// with `normal` a unit vector pointing toward the cameras (docs/conventions.md).
 #include <vector>
 
 #include <Eigen/Core>

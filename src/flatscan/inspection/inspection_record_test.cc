@@ -1,0 +1,97 @@
+#include "flatscan/inspection/inspection_record.h"
+
+#include <map>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "flatscan/util/test_util.h"
+
+namespace flatscan {
+namespace {
+
+InspectionResult SomeResult(double flatness_mm, double coverage) {
+  InspectionResult r;
+  r.values = {flatness_mm, 0.8 * flatness_mm, 0.75 * flatness_mm};
+  r.crossings_left = 2200;
+  r.crossings_right = 2190;
+  r.matched = 2150;
+  r.valid = 2101;
+  r.coverage = coverage;
+  r.completed = 12;
+  r.side_tilt_rad = 0.0123;
+  r.rim_noise_mm = 0.0004;
+  r.local_deviations = 3;
+  r.blur_left_px = 1.01;
+  r.blur_right_px = 0.99;
+  r.timing_ms = {{"boundary_left", 1.5}, {"matching", 1.7}};
+  return r;
+}
+
+const InspectionInputs kInputs{"part_007", "rig.yml", "plane.yml", "l.png", "r.png", std::string(64, 'a'),
+                               std::string(64, 'b')};
+
+std::set<std::string> Keys(const nlohmann::json& j) {
+  std::set<std::string> keys;
+  for (const auto& [k, v] : j.items()) keys.insert(k);
+  return keys;
+}
+
+const std::set<std::string> kRecordKeys = {
+    "id",          "measured",      "error",        "verdict",      "marginal",    "flatness_mm", "lsq_pv_mm",
+    "minzone_mm",  "coverage",      "tolerance_mm", "guard_band_mm", "thickness_mm", "thickness_correction",
+    "points",      "rim_model",     "blur_sigma_px", "timing_ms",    "inputs",      "warnings"};
+
+TEST(InspectionRecord, MeasuredRecordHasEveryKeyAndRoundTrips) {
+  InspectionParams params;
+  params.thickness_mm = 0.25;
+  const InspectionRecord record = MeasuredRecord(SomeResult(0.1031, 0.85), params, {0.1, 0.004}, kInputs);
+  EXPECT_EQ(record.judgement.verdict, Verdict::kFail);
+  EXPECT_TRUE(record.judgement.marginal);
+  const nlohmann::json j = RecordToJson(record);
+  EXPECT_EQ(Keys(j), kRecordKeys);
+  EXPECT_EQ(j["verdict"], "fail");
+  EXPECT_EQ(j["measured"], true);
+  EXPECT_TRUE(j["error"].is_null());
+  EXPECT_EQ(j["timing_ms"]["total"], 3.2);
+  ASSERT_EQ(j["warnings"].size(), 1u);  // coverage below 0.9
+  EXPECT_EQ(j["warnings"][0].get<std::string>().rfind("only 85% of the outline was measured", 0), 0u);
+
+  const InspectionRecord back = RecordFromJson(nlohmann::json::parse(j.dump()));
+  EXPECT_EQ(RecordToJson(back), j);
+  EXPECT_EQ(back.values.flatness_mm, 0.1031);
+  EXPECT_EQ(back.inputs.plane_sha256, std::string(64, 'b'));
+  EXPECT_EQ(back.spec.guard_band_mm, 0.004);
+}
+
+TEST(InspectionRecord, NotMeasuredHasNoVerdictAndNoValues) {
+  const InspectionRecord record = NotMeasuredRecord("l.png: no part found", {}, {}, kInputs);
+  const nlohmann::json j = RecordToJson(record);
+  EXPECT_EQ(Keys(j), kRecordKeys);
+  EXPECT_EQ(j["measured"], false);
+  EXPECT_TRUE(j["verdict"].is_null());
+  EXPECT_EQ(j["marginal"], false);
+  EXPECT_TRUE(j["flatness_mm"].is_null());
+  EXPECT_TRUE(j["coverage"].is_null());
+  EXPECT_EQ(j["error"], "l.png: no part found");
+  EXPECT_EQ(j["id"], "part_007");
+  EXPECT_EQ(RecordToJson(RecordFromJson(j)), j);
+}
+
+TEST(InspectionRecord, ReaderNamesTheKey) {
+  nlohmann::json j = RecordToJson(MeasuredRecord(SomeResult(0.05, 1.0), {}, {}, kInputs));
+  EXPECT_TRUE(j["warnings"].empty());
+  j["verdict"] = "maybe";
+  EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(j); }),
+            "inspection record: key 'verdict' must be \"pass\" or \"fail\", found \"maybe\"");
+  j.erase("tolerance_mm");
+  EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(j); }),
+            "inspection record: missing key 'tolerance_mm' (expected a number)");
+  j = RecordToJson(NotMeasuredRecord("why", {}, {}, kInputs));
+  j["verdict"] = "pass";
+  EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(j); }),
+            "inspection record: key 'verdict' must be null when measured is false");
+}
+
+}  // namespace
+}  // namespace flatscan
