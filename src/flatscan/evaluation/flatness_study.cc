@@ -75,19 +75,26 @@ PartMeasurement MeasureShot(const CalibratedStation& station, const ShotJob& job
   return MeasurePair(station, left, right, job.id + " left", job.id + " right", std::move(m), options);
 }
 
-// Measures every job in parallel; the results keep the jobs' order.
-std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
-                                          const StudyOptions& options, const StudyProgress& progress) {
-  std::vector<PartMeasurement> out(jobs.size());
+// measure(i) for i = 0 .. count - 1 in parallel; the results keep the index order.
+std::vector<PartMeasurement> MeasureInParallel(size_t count, const std::function<PartMeasurement(size_t)>& measure,
+                                               const StudyProgress& progress) {
+  std::vector<PartMeasurement> out(count);
   std::mutex mutex;
   int done = 0;
-  tbb::parallel_for(size_t{0}, jobs.size(), [&](size_t i) {
-    out[i] = MeasureShot(station, jobs[i], options);
+  tbb::parallel_for(size_t{0}, count, [&](size_t i) {
+    out[i] = measure(i);
     const std::lock_guard<std::mutex> lock(mutex);
     ++done;
-    if (progress) progress(done, static_cast<int>(jobs.size()), out[i]);
+    if (progress) progress(done, static_cast<int>(count), out[i]);
   });
   return out;
+}
+
+// Renders and measures every job.
+std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
+                                          const StudyOptions& options, const StudyProgress& progress) {
+  return MeasureInParallel(
+      jobs.size(), [&](size_t i) { return MeasureShot(station, jobs[i], options); }, progress);
 }
 
 double Median(std::vector<double> v) {
@@ -345,10 +352,7 @@ DatasetStudy RunDatasetStudy(const CalibratedStation& station, const std::filesy
                              const StudyOptions& options, const StudyProgress& progress) {
   const std::vector<TruthPart> truth = ReadTruthFile(dataset_dir);
   DatasetStudy study;
-  study.parts.resize(truth.size());
-  std::mutex mutex;
-  int done = 0;
-  tbb::parallel_for(size_t{0}, truth.size(), [&](size_t i) {
+  study.parts = MeasureInParallel(truth.size(), [&](size_t i) {
     const TruthPart& t = truth[i];
     PartMeasurement m;
     m.id = t.id;
@@ -363,11 +367,8 @@ DatasetStudy RunDatasetStudy(const CalibratedStation& station, const std::filesy
     } catch (const InputError& e) {
       m.error = e.what();
     }
-    study.parts[i] = std::move(m);
-    const std::lock_guard<std::mutex> lock(mutex);
-    ++done;
-    if (progress) progress(done, static_cast<int>(truth.size()), study.parts[i]);
-  });
+    return m;
+  }, progress);
   study.errors = SummarizeErrors(MeasuredErrors(study.parts));
   for (const PartMeasurement& p : study.parts)
     if (p.measured) study.agree += p.pass == Judge(p.true_flatness_mm, {options.tolerance_mm}).pass();

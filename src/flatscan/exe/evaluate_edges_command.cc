@@ -6,6 +6,7 @@
 
 #include "flatscan/evaluation/edge_accuracy.h"
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/util/error.h"
 
@@ -23,7 +24,7 @@ class EvaluateEdgesCommand : public Command {
         "pixel-level Canny and plain Zernike reference rows; prints a markdown table.");
     sub_->footer("Example: flatscan evaluate-edges --quick --json edges.json");
     sub_->add_flag("--quick", quick_, "fewer images per condition (4 lines, 4 circles, 3 small circles)");
-    sub_->add_option("--seed", seed_, "random seed of the geometry and the noise")->default_val(1);
+    AddSeedOption(sub_, &seed_);
     sub_->add_option("--json", json_, "also write the rows as JSON to this file");
     sub_->add_flag("--known-blur", known_blur_, "give the detector the true blur sigma instead of estimating it");
     sub_->add_flag("--whole-image", whole_image_, "run on the whole image for discs too (restrict_to_part = false)");
