@@ -86,7 +86,8 @@ StereoRectification::StereoRectification(const StereoRig& rig)
     : left_(rig, RigSide::kLeft), right_(rig, RigSide::kRight) {
   const Rectification& r = rig.rectification;
   const Eigen::Matrix3d k1 = left_.RectifiedCameraMatrix(), k2 = right_.RectifiedCameraMatrix();
-  FLATSCAN_CHECK(k1(0, 0) == k2(0, 0));
+  // One focal length for both rectified cameras (checked when a rig file is read).
+  FLATSCAN_CHECK(std::abs(k1(0, 0) - k2(0, 0)) <= 1e-9 * k1(0, 0));
   stereo_.f = k1(0, 0);
   stereo_.cx1 = k1(0, 2);
   stereo_.cy = k1(1, 2);

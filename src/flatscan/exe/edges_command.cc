@@ -1,12 +1,9 @@
 #include <algorithm>
-#include <cmath>
 #include <filesystem>
 #include <iostream>
-#include <map>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
 #include "flatscan/boundary/boundary.h"

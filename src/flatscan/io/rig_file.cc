@@ -291,6 +291,10 @@ StereoRig ReadRigFile(const fs::path& path) {
               "must have cv::stereoRectify's form [f 0 cx tx; 0 f cy ty; 0 0 1 0] (one focal length f > 0, no "
               "skew); remove R1 R2 P1 P2 Q to have them recomputed");
   }
+  const double f1 = m[2].at<double>(0, 0), f2 = m[3].at<double>(0, 0);
+  if (std::abs(f1 - f2) > 1e-9 * f1)
+    in.Fail("P2", "must have the focal length of P1 ({}; found {}): both rectified cameras share one; remove R1 R2 P1 "
+            "P2 Q to have them recomputed", f1, f2);
   rig.rectification = {m[0], m[1], m[2], m[3], m[4]};
   return rig;
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <Eigen/Geometry>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -397,6 +398,23 @@ TEST_F(RigFile, PartialRectification) {
   EXPECT_EQ(ReadError(RigKeys(rig_, true).Remove("Q")),
             Expected("key 'R1' is present but 'Q' is missing (give all of R1 R2 P1 P2 Q, or none "
                      "to have them recomputed)"));
+}
+
+// The sparse rectification relies on cv::stereoRectify's form of P1 and P2.
+TEST_F(RigFile, RectifiedProjectionsMustHaveStereoRectifysForm) {
+  cv::Mat skewed = rig_.rectification.P1.clone();
+  skewed.at<double>(0, 1) = 0.5;
+  EXPECT_EQ(ReadError(RigKeys(rig_, true).Set("P1", skewed)),
+            Expected("key 'P1' must have cv::stereoRectify's form [f 0 cx tx; 0 f cy ty; 0 0 1 0] (one focal length "
+                     "f > 0, no skew); remove R1 R2 P1 P2 Q to have them recomputed"));
+  cv::Mat other_focal = rig_.rectification.P2.clone();
+  other_focal.at<double>(0, 0) *= 1.01;
+  other_focal.at<double>(1, 1) *= 1.01;
+  const double f1 = rig_.rectification.P1.at<double>(0, 0);
+  EXPECT_EQ(ReadError(RigKeys(rig_, true).Set("P2", other_focal)),
+            Expected(fmt::format("key 'P2' must have the focal length of P1 ({}; found {}): both rectified cameras "
+                                 "share one; remove R1 R2 P1 P2 Q to have them recomputed",
+                                 f1, other_focal.at<double>(0, 0))));
 }
 
 TEST_F(RigFile, WrongUnits) {
