@@ -9,20 +9,13 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "flatscan/geometry/geometry_test_util.h"
 #include "flatscan/simulation/station.h"
 
 namespace flatscan {
 namespace {
 
-// Points on a grid covering the whole raw image, including its outer corners
-// (-0.5, -0.5) and (width - 0.5, height - 0.5).
-std::vector<Eigen::Vector2d> GridOverImage(const Camera& camera, int steps) {
-  std::vector<Eigen::Vector2d> out;
-  for (int j = 0; j <= steps; ++j)
-    for (int i = 0; i <= steps; ++i)
-      out.emplace_back(-0.5 + camera.width * i / double(steps), -0.5 + camera.height * j / double(steps));
-  return out;
-}
+using testing::GridOverImage;
 
 // The 'compact' preset with a wider, more distorted lens: the four raw image corners
 // are at normalized radius 0.65, where cv::undistortPoints' 5 default iterations are

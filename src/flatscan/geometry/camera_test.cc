@@ -9,6 +9,7 @@
 
 #include "flatscan/util/error.h"
 #include "flatscan/util/random.h"
+#include "flatscan/geometry/geometry_test_util.h"
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
@@ -35,13 +36,7 @@ Camera RationalCamera() {
   return c;
 }
 
-std::vector<Eigen::Vector2d> GridOverImage(const Camera& c, int steps) {
-  std::vector<Eigen::Vector2d> out;
-  for (int j = 0; j <= steps; ++j)
-    for (int i = 0; i <= steps; ++i)
-      out.emplace_back(-0.5 + c.width * i / double(steps), -0.5 + c.height * j / double(steps));
-  return out;
-}
+using testing::GridOverImage;
 
 TEST(Camera, ProjectIsOpenCvsProjectPoints) {
   for (const Camera& camera : {StandardCamera(), RationalCamera()}) {
