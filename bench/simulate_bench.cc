@@ -1,5 +1,8 @@
 // Simulator speed: one paper-preset part pair (2 x 2592 x 1944) on one thread,
 // split into rendering (ray casting, blur, noise, quantisation) and PNG encoding.
+// The render is timed with both side-face models (argument 0: local, the default; 1:
+// centre, one direction), so that the cost of the local faces' sheet coordinates is a
+// ratio measured in one run.
 //   build/simulate_bench --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 #include <opencv2/imgcodecs.hpp>
@@ -22,6 +25,8 @@ struct PaperPart {
 void BM_RenderPaperPartPair(benchmark::State& state) {
   tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   PaperPart scene;
+  scene.part.geometry.side_faces = state.range(0) == 0 ? SideFaceModel::kLocalNormal : SideFaceModel::kCentreNormal;
+  state.SetLabel(SideFaceModelName(scene.part.geometry.side_faces));
   uint64_t seed = 1;
   for (auto _ : state) {
     for (const RigSide camera : {RigSide::kLeft, RigSide::kRight}) {
@@ -31,7 +36,7 @@ void BM_RenderPaperPartPair(benchmark::State& state) {
     }
   }
 }
-BENCHMARK(BM_RenderPaperPartPair)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RenderPaperPartPair)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_EncodePaperPartPairPng(benchmark::State& state) {
   PaperPart scene;

@@ -281,6 +281,11 @@ RenderedPart RenderBatchPart(const CalibratedStation& station, const BatchStudyO
   return Rendered(station, BatchJob(WithShots(station.truth, 1), options, index), index);
 }
 
+double AngleToBaselineDeg(double rotation_deg) {
+  const double r = std::fmod(std::fmod(rotation_deg, 90.0) + 90.0, 90.0);
+  return std::min(r, 90.0 - r);
+}
+
 BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptions& options,
                          const StudyProgress& progress) {
   if (options.parts < 1) ThrowFieldError("batch.parts", "expected at least 1 part, got {}", options.parts);
@@ -296,6 +301,10 @@ BatchStudy RunBatchStudy(const CalibratedStation& station, const BatchStudyOptio
     if (p.measured) (p.coverage >= BatchStudy::kGoodCoverage ? good : low).push_back(p.ErrorMm());
   study.errors_good_coverage = SummarizeErrors(good);
   study.errors_low_coverage = SummarizeErrors(low);
+  std::vector<double> turned;
+  for (const PartMeasurement& p : study.parts)
+    if (p.measured && AngleToBaselineDeg(p.rotation_deg) >= BatchStudy::kTurnedDeg) turned.push_back(p.ErrorMm());
+  study.errors_turned = SummarizeErrors(turned);
   study.uncertainty_mm = study.errors.p95_abs_mm;
   study.guard_band = ApplyGuardBand(study.parts, options.tolerance_mm, study.uncertainty_mm);
   int beyond = 0, near = 0;

@@ -62,6 +62,9 @@ struct ErrorSummary {
 };
 ErrorSummary SummarizeErrors(std::vector<double> errors_mm);
 
+// A rotation's angle to the nearest of the baseline and its perpendicular, in [0, 45].
+double AngleToBaselineDeg(double rotation_deg);
+
 struct RepeatStudy {
   PartGeometry geometry;
   double true_flatness_mm = 0;
@@ -131,6 +134,10 @@ struct BatchStudy {
   // epipolar rows cannot be measured and are completed from a warp fit.
   static constexpr double kGoodCoverage = 0.9;
   ErrorSummary errors_good_coverage, errors_low_coverage;
+  // The same over the parts turned at least kTurnedDeg from the camera baseline (and
+  // from its perpendicular: a rectangle's sides then cross the epipolar rows).
+  static constexpr double kTurnedDeg = 5.0;
+  ErrorSummary errors_turned;
   // Expanded uncertainty: the 95th percentile of |measured - true| over the lot.
   double uncertainty_mm = 0;
   GuardBandSummary guard_band;

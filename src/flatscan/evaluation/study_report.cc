@@ -120,6 +120,8 @@ std::string BatchMarkdown(const BatchStudy& st, const BatchStudyOptions& o) {
   md += fmt::format("- parts with coverage >= {:.1f}: ", BatchStudy::kGoodCoverage) + ErrorLine(st.errors_good_coverage);
   md += fmt::format("- parts with coverage < {:.1f} (outline along the epipolar rows): ", BatchStudy::kGoodCoverage) +
         ErrorLine(st.errors_low_coverage);
+  md += fmt::format("- parts turned at least {:.0f} degrees from the baseline and its perpendicular: ", BatchStudy::kTurnedDeg) +
+        ErrorLine(st.errors_turned);
   const GuardBandSummary& g = st.guard_band;
   md += fmt::format(
       "Measurement uncertainty U (95th percentile of |error|): {:.2f} um. With a guard band of U, {} parts measured within "
@@ -147,6 +149,7 @@ nlohmann::json BatchJson(const BatchStudy& st, const BatchStudyOptions& o) {
           {"errors", ErrorJson(st.errors)},
           {"errors_good_coverage", ErrorJson(st.errors_good_coverage)},
           {"errors_low_coverage", ErrorJson(st.errors_low_coverage)},
+          {"errors_turned", ErrorJson(st.errors_turned)},
           {"uncertainty_mm", st.uncertainty_mm},
           {"guard_band", {{"uncertainty_mm", g.uncertainty_mm}, {"marginal", g.marginal}, {"wrong_marginal", g.wrong_marginal},
                           {"decided", g.decided}, {"decided_wrong", g.decided_wrong}, {"decided_accuracy", g.decided_accuracy}}},

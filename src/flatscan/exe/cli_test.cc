@@ -39,6 +39,12 @@ TEST(Cli, EverySubcommandHasHelp) {
   EXPECT_EQ(RunFlatscan("no-such-command").exit_code, 2);
 }
 
+TEST(Cli, UnknownSideFaceModelExitsTwoNamingTheChoices) {
+  const auto r = RunFlatscan("inspect --rig r.yml --plane p.yml --left l.png --right r.png --thickness 0.2 --side-faces sideways");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--side-faces: sideways not in {local,centre,support}"), std::string::npos) << r.err;
+}
+
 TEST(Cli, SimulateIsDeterministicForASeed) {
   ScratchDir dir("cli-determinism");
   const auto scene = WriteSmallScene(dir.path());

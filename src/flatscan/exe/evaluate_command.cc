@@ -80,6 +80,7 @@ class EvaluateCommand : public Command {
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
         ->default_val(0)->check(CLI::NonNegativeNumber);
     AddNoThicknessCorrectionFlag(sub_, &no_correction_);
+    AddSideFacesOption(sub_, &side_faces_);
     sub_->add_flag("--true-calibration", true_calibration_,
                    "diagnostic: inspect with the simulator's true rig and plane instead of the calibrated ones, to "
                    "separate the calibration's share of the error from the inspection's");
@@ -99,6 +100,7 @@ class EvaluateCommand : public Command {
       o->tolerance_mm = tolerance_;
       o->seed = seed_;
       o->inspection.thickness_correction = !no_correction_;
+      o->inspection.side_faces = side_faces_;
     }
     const auto start = std::chrono::steady_clock::now();
     StagedDirectory dir(output_);
@@ -110,11 +112,13 @@ class EvaluateCommand : public Command {
       station.rig_report.rig = station.truth.rig;
       station.plane_report.plane = station.truth.plane;
     }
-    std::string md = fmt::format("## flatscan evaluate: scene '{}', seed {}{}{}\n\n", scene.name, seed_,
-                                 no_correction_ ? ", thickness correction OFF" : "",
+    std::string md = fmt::format("## flatscan evaluate: scene '{}', seed {}, side faces rendered {} and measured {}{}{}\n\n",
+                                 scene.name, seed_, SideFaceModelName(scene.part.side_faces),
+                                 SideFaceModelName(side_faces_), no_correction_ ? ", thickness correction OFF" : "",
                                  true_calibration_ ? ", TRUE rig and plane (diagnostic, not a calibrated station)" : "");
     md += CalibrationMarkdown(station) + "\n";
     nlohmann::json json = {{"scene", SceneToJson(scene)}, {"seed", seed_}, {"thickness_correction", !no_correction_},
+                           {"side_faces", SideFaceModelName(side_faces_)},
                            {"true_calibration", true_calibration_},
                            {"calibration", CalibrationJson(station)}};
     std::cout << md << std::flush;
@@ -165,6 +169,7 @@ class EvaluateCommand : public Command {
   uint64_t seed_ = 1;
   bool repeat_ = false;
   bool no_correction_ = false;
+  SideFaceModel side_faces_ = SideFaceModel::kLocalNormal;
   bool true_calibration_ = false;
   double tolerance_ = FlatnessSpec::kDefaultToleranceMm;
   int calib_poses_ = kDefaultCalibrationPoses;

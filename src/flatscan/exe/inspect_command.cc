@@ -48,6 +48,7 @@ class InspectCommand : public Command {
     sub_->add_option("--ply", ply_, "PLY of the valid 3D boundary points with their heights (single pair)");
     sub_->add_option("--overlay", overlay_, "folder for left/right overlay PNGs of the points coloured by height");
     AddNoThicknessCorrectionFlag(sub_, &no_correction_);
+    AddSideFacesOption(sub_, &params_.side_faces);
     sub_->add_option("--blur", params_.boundary.blur_sigma_px, "lens blur sigma in px if known (default: estimated)");
   }
 

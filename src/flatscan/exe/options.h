@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "flatscan/flatness/verdict.h"
+#include "flatscan/geometry/side_faces.h"
 #include "flatscan/simulation/scene_config.h"
 #include "flatscan/util/error.h"
 
@@ -35,6 +36,18 @@ inline CLI::Option* AddNoThicknessCorrectionFlag(CLI::App* sub, bool* no_correct
   return sub->add_flag("--no-thickness-correction", *no_correction,
                        "triangulate the silhouettes as if the sheet had no thickness (to see what the correction "
                        "removes)");
+}
+
+// --side-faces: the measurement's model of the side faces (geometry/side_faces.h).
+inline CLI::Option* AddSideFacesOption(CLI::App* sub, SideFaceModel* model) {
+  return sub
+      ->add_option_function<std::string>(
+          "--side-faces", [model](const std::string& name) { *model = ParseSideFaceModel(name); },
+          "how the measurement takes the side faces: local (perpendicular to the sheet at each rim point, the "
+          "physics of a cut sheet), centre (one direction: the sheet's normal at the part's centre, earlier "
+          "versions) or support (the support plane's normal); a diagnostic")
+      ->check(CLI::IsMember({"local", "centre", "support"}))
+      ->default_str(SideFaceModelName(*model));
 }
 
 // --preset / --scene: the simulated station.

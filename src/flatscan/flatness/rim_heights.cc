@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include <Eigen/Dense>
 
@@ -224,28 +225,38 @@ WarpSurface::Vector WarpSurface::Basis(const Eigen::Vector3d& p) const {
 
 double WarpSurface::Height(const Eigen::Vector3d& p) const { return Basis(p).dot(coefficients_); }
 
-Eigen::Vector3d WarpSurface::SheetNormal(const Eigen::Vector3d& p) const {
+std::pair<WarpSurface::Vector, WarpSurface::Vector> WarpSurface::GradientBasis(const Eigen::Vector3d& p) const {
   const double x = (p - centre_).dot(e1_) / 10.0, y = (p - centre_).dot(e2_) / 10.0;
   Vector dx, dy;
   dx << 0, 1, 0, 2 * x, y, 0, 3 * x * x, 2 * x * y, y * y, 0;
   dy << 0, 0, 1, 0, x, 2 * y, 0, x * x, 2 * x * y, 3 * y * y;
-  const double gx = dx.dot(coefficients_) / 10.0, gy = dy.dot(coefficients_) / 10.0;  // mm per mm
+  return {dx / 10.0, dy / 10.0};  // coordinates are in units of 10 mm
+}
+
+Eigen::Vector3d WarpSurface::SheetNormal(const Eigen::Vector3d& p) const {
+  const auto [dx, dy] = GradientBasis(p);
+  const double gx = dx.dot(coefficients_), gy = dy.dot(coefficients_);  // mm per mm
   return (plane_.normal - gx * e1_ - gy * e2_).normalized();
 }
 
+std::pair<Eigen::Vector3d, Eigen::Vector3d> PlaneAxes(const SupportPlane& plane) {
+  const Eigen::Vector3d e1 = plane.normal.unitOrthogonal();
+  return {e1, plane.normal.cross(e1)};
+}
+
 WarpSurface WarpSurface::Fit(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
-                             const WarpFitOptions& options) {
-  return FitRobust(plane, rim, inner, options, FindGrossPoints(rim.heights));
+                             const WarpFitOptions& options, const FaceCoupling* coupling) {
+  return FitRobust(plane, rim, inner, options, FindGrossPoints(rim.heights), coupling);
 }
 
 // Weighted least squares by the normal equations (at most 11 unknowns, coordinates in
 // units of 10 mm so the cubic terms stay of order one), then Tukey reweighting.
 WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
-                                   const WarpFitOptions& options, const std::vector<char>& rim_gross) {
+                                   const WarpFitOptions& options, const std::vector<char>& rim_gross,
+                                   const FaceCoupling* coupling) {
   WarpSurface s;
   s.plane_ = plane;
-  s.e1_ = plane.normal.unitOrthogonal();
-  s.e2_ = plane.normal.cross(s.e1_);
+  std::tie(s.e1_, s.e2_) = PlaneAxes(plane);
   for (const Eigen::Vector3d& p : rim.points) s.centre_ += p;
   if (rim.size() > 0) s.centre_ /= static_cast<double>(rim.size());
   const bool use_inner = inner.size() >= 10;
@@ -262,6 +273,14 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
     basis.row(i).head(kTerms) = s.Basis(from.points[k]).transpose();
     if (use_inner) basis(i, kTerms) = is_inner ? 1.0 : 0.0;
     h[i] = from.heights[k];
+    const std::vector<Eigen::Vector2d>* gain = coupling ? (is_inner ? &coupling->inner_gain : &coupling->rim_gain) : nullptr;
+    if (gain && gain->size() == from.size()) {
+      // h + gain . S_assumed = W - gain . grad W (FaceCoupling).
+      const Eigen::Vector2d& g = (*gain)[k];
+      const auto [dx, dy] = s.GradientBasis(from.points[k]);
+      basis.row(i).head(kTerms) -= (g.x() * dx + g.y() * dy).transpose();
+      h[i] += g.dot((is_inner ? coupling->inner_assumed : coupling->rim_assumed)[k]);
+    }
     w[i] = from.weights[k];
     robust[i] = !is_inner && k < rim_gross.size() && rim_gross[k] ? 0.0 : 1.0;
   }

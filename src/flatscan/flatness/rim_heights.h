@@ -23,6 +23,7 @@
 //
 // Units: mm. Points are 3D (any frame: camera 1's in the inspection); heights are
 // along the support plane's normal.
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -65,6 +66,24 @@ struct WarpFitOptions {
   int robust_passes = 3;
 };
 
+// The horizontal axes (e1, e2) of the support plane in which the warp is expanded:
+// e1 = normal.unitOrthogonal(), e2 = normal x e1.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> PlaneAxes(const SupportPlane& plane);
+
+// How the measured heights depend on the side faces' direction (the thickness-aware
+// triangulation, inspection/rim_points.h): a height triangulated with the faces along
+// S_assumed is, to first order,
+//   h = h_true + gain . (S_true - S_assumed)      (horizontal parts along e1, e2)
+// and a cut sheet's faces are its normal, S_true = -grad W to first order. Given the
+// gains and the assumed directions, Fit solves for W with that dependence in its
+// design: h + gain . S_assumed = W(p) - gain . grad W(p), which is linear in W's
+// coefficients. One value per sample of the rim and of the inner edges (empty: no
+// coupling for that set).
+struct FaceCoupling {
+  std::vector<Eigen::Vector2d> rim_gain, rim_assumed;      // mm per rad; rad
+  std::vector<Eigen::Vector2d> inner_gain, inner_assumed;
+};
+
 struct RimHeights;
 struct RimHeightOptions;
 
@@ -74,7 +93,7 @@ class WarpSurface {
   // against their neighbours' medians) and to `inner` (hole edges, any order; used
   // when there are at least 10, with their own height offset).
   static WarpSurface Fit(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner = {},
-                         const WarpFitOptions& options = {});
+                         const WarpFitOptions& options = {}, const FaceCoupling* coupling = nullptr);
   double Height(const Eigen::Vector3d& p) const;
   // Unit normal of the surface at p, toward the cameras.
   Eigen::Vector3d SheetNormal(const Eigen::Vector3d& p) const;
@@ -85,10 +104,13 @@ class WarpSurface {
                                        const RimHeightOptions&);
   // Fit with the rim's gross points (weight 0 to start) already found.
   static WarpSurface FitRobust(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
-                               const WarpFitOptions& options, const std::vector<char>& rim_gross);
+                               const WarpFitOptions& options, const std::vector<char>& rim_gross,
+                               const FaceCoupling* coupling = nullptr);
   static constexpr int kTerms = 10;
   using Vector = Eigen::Matrix<double, kTerms, 1>;
   Vector Basis(const Eigen::Vector3d& p) const;
+  // d Basis / d(e1, e2 coordinate), per mm.
+  std::pair<Vector, Vector> GradientBasis(const Eigen::Vector3d& p) const;
   SupportPlane plane_;
   Eigen::Vector3d e1_, e2_, centre_ = Eigen::Vector3d::Zero();
   Vector coefficients_ = Vector::Zero();

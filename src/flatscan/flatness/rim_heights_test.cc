@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <gtest/gtest.h>
 
@@ -83,6 +84,58 @@ TEST(WarpSurface, RecoversACubicWarpAndItsNormal) {
   // At the centre the slope is (0, 0): the normal is the plane's (to 0.2 mrad, which
   // moves a 0.3 mm sheet's top edge by 0.06 um).
   EXPECT_LT((warp.SheetNormal(Eigen::Vector3d(0, 0, 200)) - Plane().normal).norm(), 2e-4);
+}
+
+// Heights triangulated with the side faces along the support normal are off by
+// gain . (S_true - S_assumed) (FaceCoupling): with that dependence in its design the
+// fit recovers the warp and its normals; fitted to the heights alone it does not.
+TEST(WarpSurface, CoupledToTheFacesItRecoversTheSheetTheHeightsWereMeasuredWith) {
+  const SupportPlane plane = Plane();
+  const auto [e1, e2] = PlaneAxes(plane);
+  // grad W in the camera's (x, y), mm per mm (Warp above).
+  auto gradient = [](const Eigen::Vector2d& p) {
+    const double x = p.x() / 8, y = p.y() / 5;
+    return Eigen::Vector2d((0.08 * x + 0.05 * y + 0.03 * x * x - 0.008 * y * y) / 8,
+                           (-0.06 * y + 0.05 * x - 0.016 * x * y) / 5);
+  };
+  auto true_normal = [&](const Eigen::Vector2d& p) {
+    const Eigen::Vector2d g = gradient(p);
+    // Heights grow along -z: a slope g in (x, y) is -g along the plane normal's frame.
+    const Eigen::Vector3d up = plane.normal, gx = Eigen::Vector3d::UnitX(), gy = Eigen::Vector3d::UnitY();
+    return (up - g.x() * gx - g.y() * gy).normalized();
+  };
+  HeightSamples rim;
+  FaceCoupling coupling;
+  for (const Eigen::Vector2d& p : Outline(0.05)) {
+    const double h = Warp(p);
+    const Eigen::Vector3d s_true = true_normal(p);
+    const Eigen::Vector2d s_true_h(s_true.dot(e1), s_true.dot(e2));
+    // About the gains of a 0.3 mm sheet on the paper rig: 1 mm per rad, outward.
+    const Eigen::Vector3d out(p.x() / 8, p.y() / 5, 0);
+    const Eigen::Vector2d gain = 1.0 * Eigen::Vector2d(out.dot(e1), out.dot(e2)).normalized();
+    const Eigen::Vector2d assumed(0, 0);  // faces along the support normal
+    rim.Add(Eigen::Vector3d(p.x(), p.y(), 200 - h), h + gain.dot(s_true_h - assumed), 1.0);
+    coupling.rim_gain.push_back(gain);
+    coupling.rim_assumed.push_back(assumed);
+  }
+  WarpFitOptions options;
+  options.curvature_prior_mm = 0;  // noise-free data: no prior needed
+  options.curvature_ridge = 0;
+  const WarpSurface coupled = WarpSurface::Fit(plane, rim, {}, options, &coupling);
+  const WarpSurface alone = WarpSurface::Fit(plane, rim, {}, options);
+  double coupled_error = 0, alone_error = 0, height_error = 0;
+  for (const Eigen::Vector2d& p : Outline(0.5)) {
+    const Eigen::Vector3d at(p.x(), p.y(), 200 - Warp(p));
+    coupled_error = std::max(coupled_error, (coupled.SheetNormal(at) - true_normal(p)).norm());
+    alone_error = std::max(alone_error, (alone.SheetNormal(at) - true_normal(p)).norm());
+    height_error = std::max(height_error, std::abs(coupled.Height(at) - Warp(p)));
+  }
+  std::printf("largest normal error: coupled %.1e rad, heights alone %.1e rad\n", coupled_error, alone_error);
+  // What remains is the linearisation S_h = -grad W (the normal's horizontal part is
+  // -grad W / sqrt(1 + |grad W|^2)): a few urad, hundredths of a micrometre.
+  EXPECT_LT(coupled_error, 1e-5);
+  EXPECT_LT(height_error, 2e-5);
+  EXPECT_GT(alone_error, 1e-3);
 }
 
 // The largest of thousands of noisy heights is biased up by about 3 noise SDs; the

@@ -15,12 +15,13 @@ namespace {
 
 // The bottom-rim point seen at raw left pixel `q` (image normal `n`) on the warp
 // surface: the left ray meets the silhouette edge (the top edge when camera 1 is on
-// the inner side of the side face), which lies `thickness` above the bottom rim.
-// Fixed point h = surface height where the ray meets the level h: it contracts by the
-// surface slope times the ray's obliquity; a point where it does not settle to 0.1 um
-// is not completed (NaN; a runaway once gave +4.5 mm).
-Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, const Eigen::Vector2d& q,
-                                   const Eigen::Vector2d& n, double thickness) {
+// the inner side of the side face), which lies `thickness` along the side face
+// (`faces`) from the bottom rim. Fixed point h = height of the silhouette edge where
+// the ray meets the level h: it contracts by the surface slope times the ray's
+// obliquity; a point where it does not settle to 0.1 um is not completed (NaN; a
+// runaway once gave +4.5 mm).
+Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const SideFaceField& faces, const Camera& left,
+                                   const Eigen::Vector2d& q, const Eigen::Vector2d& n, double thickness) {
   const Eigen::Vector2d xy = left.PixelToNormalized(q);
   const Eigen::Vector2d xy_out = left.PixelToNormalized(q + 0.5 * n);
   const Eigen::Vector3d d(xy.x(), xy.y(), 1.0), d_out(xy_out.x(), xy_out.y(), 1.0);
@@ -34,8 +35,9 @@ Eigen::Vector3d LiftLeftSilhouette(const WarpSurface& warp, const Camera& left, 
     outward -= outward.dot(up) * up;
     // Camera 1 is at the origin: it sees the bottom edge from the outer side.
     const double rise = EdgeRise((-seen).dot(outward) > 0 ? SilhouetteEdge::kBottom : SilhouetteEdge::kTop);
-    const Eigen::Vector3d bottom = seen - rise * thickness * up;
-    const double next = warp.Height(bottom) + rise * thickness;
+    const Eigen::Vector3d side = faces.At(seen);
+    const Eigen::Vector3d bottom = seen - rise * thickness * side;
+    const double next = warp.Height(bottom) + rise * thickness * side.dot(up);
     if (std::abs(next - h) < 1e-4 && iter > 0) return bottom;
     h = next;
   }
@@ -96,6 +98,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   RimPoints measured = TriangulateRim(rectification, plane, outline, params);
   timer.Mark("triangulation");
   result.side_tilt_rad = measured.side_tilt_rad;
+  result.max_face_tilt_rad = measured.max_face_tilt_rad;
   result.valid = static_cast<int>(measured.points.size());
   const HeightSamples& rim = measured.rim;
   if (rim.size() < 10)
@@ -127,13 +130,19 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   // Stretches the two cameras cannot measure (boundary along the epipolar rows) are
   // completed from the warp surface fitted to the measured rim and hole edges.
   if (params.complete_unmeasured && result.coverage < 1.0) {
+    // The faces along the same model as the measured rim's, on the final warp surface.
+    const SideFaceField faces = params.side_faces == SideFaceModel::kSupportNormal
+                                    ? SideFaceField(plane)
+                                    : SideFaceField(params.side_faces, heights.warp, measured.footprint_centre,
+                                                    params.max_face_tilt_rad);
     const auto [lo, hi] = std::minmax_element(heights.heights.begin(), heights.heights.end());
     const double measured_min = *lo, measured_max = *hi, margin = 0.5 * (*hi - *lo) + 0.02;
     for (size_t i = 0; i < coverage.covered.size(); ++i) {
       if (coverage.covered[i]) continue;
       const EdgePoint& e = outline.left.points[outer.begin + i];
-      const Eigen::Vector3d bottom = LiftLeftSilhouette(heights.warp, rig.left, Eigen::Vector2d(e.x, e.y), Eigen::Vector2d(e.nx, e.ny),
-                                                        params.thickness_correction ? params.thickness_mm : 0.0);
+      const Eigen::Vector3d bottom =
+          LiftLeftSilhouette(heights.warp, faces, rig.left, Eigen::Vector2d(e.x, e.y), Eigen::Vector2d(e.nx, e.ny),
+                             params.thickness_correction ? params.thickness_mm : 0.0);
       if (!bottom.allFinite()) continue;
       // A safety net for a fit the data do not hold (once +4.5 mm on a 0.2 mm part): a
       // completed height beyond the measured rim's range widened by half that range

@@ -14,6 +14,7 @@
 #include "flatscan/boundary/boundary.h"
 #include "flatscan/calibration/stereo_rig.h"
 #include "flatscan/flatness/flatness_metrics.h"
+#include "flatscan/geometry/side_faces.h"
 #include "flatscan/reconstruction/rectified_stereo.h"
 #include "flatscan/reconstruction/stereo_matching.h"
 #include "flatscan/support_plane/support_plane.h"
@@ -43,11 +44,18 @@ struct ImageAcceptance {
 struct InspectionParams {
   double thickness_mm = 0.2;    // height of the part's side face (sheet, plus walls if any)
   bool thickness_correction = true;
-  // Side faces along the sheet's normal estimated from a first pass (the normal of the
-  // fitted warp surface at the footprint's centre: the part's rest tilt), not the
-  // support normal; tilts beyond max_side_tilt_rad are capped.
-  bool estimate_side_tilt = true;
-  double max_side_tilt_rad = 0.06;
+  // How the side faces stand (geometry/side_faces.h): local (default: perpendicular to
+  // the sheet at each rim point, from the warp surface fitted to a first pass and
+  // refined until the directions settle), centre (one direction: the fitted sheet's
+  // normal at the footprint's centre, the model of earlier versions) or support (the
+  // support normal: no estimate).
+  SideFaceModel side_faces = SideFaceModel::kLocalNormal;
+  // A face direction leaning more than this from the support normal is a fit the data
+  // do not hold and is taken at this tilt. 0.25 rad: a sheet sloping that much at its
+  // rim rises 1.2 mm over 5 mm, far beyond a part measured against a 0.1 mm
+  // tolerance; the lots `evaluate` draws reach 0.09 rad (the 0.06 rad cap of earlier
+  // versions cut real slopes of 0.065 rad).
+  double max_face_tilt_rad = 0.25;
   MatchingParams matching;
   double max_height_mm = 5.0;   // disparity search: parts from -0.5 mm to this above the plane
   double outlier_radius_mm = 0.25;  // at least; 2.5 crossing spacings where the boundary runs near the rows
@@ -83,7 +91,8 @@ struct InspectionResult {
   int crossings_left = 0, crossings_right = 0, matched = 0, valid = 0;
   double coverage = 0.0;         // fraction of the outer boundary's length with valid points
   int completed = 0;             // outline points completed from the warp model
-  double side_tilt_rad = 0.0;    // estimated tilt of the side faces from the support normal
+  double side_tilt_rad = 0.0;    // estimated tilt of the side faces at the footprint centre from the support normal
+  double max_face_tilt_rad = 0.0;  // the largest over the rim (side_faces local)
   double rim_noise_mm = 0.0;     // mean standard deviation of the smoothed deviations from the warp surface
   int local_deviations = 0;      // rim points whose deviation from the warp surface stands out
   double blur_left_px = 0, blur_right_px = 0;

@@ -18,6 +18,7 @@ InspectionRecord BaseRecord(const InspectionParams& params, const FlatnessSpec& 
   r.spec = spec;
   r.thickness_mm = params.thickness_mm;
   r.thickness_correction = params.thickness_correction;
+  r.side_faces = params.side_faces;
   r.inputs = inputs;
   return r;
 }
@@ -75,6 +76,7 @@ InspectionRecord MeasuredRecord(const InspectionResult& result, const Inspection
   r.completed = result.completed;
   r.rim_noise_mm = result.rim_noise_mm;
   r.side_tilt_rad = result.side_tilt_rad;
+  r.max_face_tilt_rad = result.max_face_tilt_rad;
   r.local_deviations = result.local_deviations;
   r.blur_left_px = result.blur_left_px;
   r.blur_right_px = result.blur_right_px;
@@ -114,7 +116,8 @@ json RecordToJson(const InspectionRecord& r) {
   j["points"] = {{"crossings_left", r.crossings_left}, {"crossings_right", r.crossings_right},
                  {"matched", r.matched}, {"valid", r.valid}, {"completed", r.completed}};
   j["rim_model"] = {{"noise_mm", r.rim_noise_mm}, {"local_deviations", r.local_deviations},
-                    {"side_tilt_rad", r.side_tilt_rad}};
+                    {"side_faces", SideFaceModelName(r.side_faces)}, {"side_tilt_rad", r.side_tilt_rad},
+                    {"max_face_tilt_rad", r.max_face_tilt_rad}};
   j["blur_sigma_px"] = {r.blur_left_px, r.blur_right_px};
   json timing = json::object();
   for (const auto& [stage, ms] : r.timing_ms) timing[stage] = ms;
@@ -157,6 +160,14 @@ InspectionRecord RecordFromJson(const json& j) {
   r.rim_noise_mm = in.Get<double>(model.value("noise_mm", json()), "rim_model.noise_mm", "a number");
   r.local_deviations = in.Integer(model.value("local_deviations", json()), "rim_model.local_deviations");
   r.side_tilt_rad = in.Get<double>(model.value("side_tilt_rad", json()), "rim_model.side_tilt_rad", "a number");
+  r.max_face_tilt_rad =
+      in.Get<double>(model.value("max_face_tilt_rad", json()), "rim_model.max_face_tilt_rad", "a number");
+  const std::string faces = in.Get<std::string>(model.value("side_faces", json()), "rim_model.side_faces", "a string");
+  try {
+    r.side_faces = ParseSideFaceModel(faces);
+  } catch (const InputError& e) {
+    ThrowInputError("inspection record: key 'rim_model.side_faces': {}", e.what());
+  }
   const json& blur = in.At("blur_sigma_px", "[left, right]");
   if (!blur.is_array() || blur.size() != 2) ThrowInputError("inspection record: key 'blur_sigma_px' must be [left, right]");
   r.blur_left_px = in.Get<double>(blur[0], "blur_sigma_px", "a number");

@@ -15,7 +15,8 @@
 //   tolerance_mm, guard_band_mm, thickness_mm, thickness_correction    what it was judged
 //                      and measured with
 //   points             {crossings_left, crossings_right, matched, valid, completed}
-//   rim_model          {noise_mm, local_deviations, side_tilt_rad}
+//   rim_model          {noise_mm, local_deviations, side_faces (local / centre / support),
+//                      side_tilt_rad (at the footprint centre), max_face_tilt_rad (over the rim)}
 //   blur_sigma_px      [left, right]
 //   timing_ms          {stage: ms, ..., total}
 //   inputs             {rig, rig_sha256, plane, plane_sha256, left, right}
@@ -49,7 +50,8 @@ struct InspectionRecord {
   double thickness_mm = 0;
   bool thickness_correction = true;
   int crossings_left = 0, crossings_right = 0, matched = 0, valid = 0, completed = 0;
-  double rim_noise_mm = 0, side_tilt_rad = 0;
+  SideFaceModel side_faces = SideFaceModel::kLocalNormal;
+  double rim_noise_mm = 0, side_tilt_rad = 0, max_face_tilt_rad = 0;
   int local_deviations = 0;
   double blur_left_px = 0, blur_right_px = 0;
   std::vector<std::pair<std::string, double>> timing_ms;  // per stage, in order (total apart)

@@ -20,6 +20,7 @@ InspectionResult SomeResult(double flatness_mm, double coverage) {
   r.coverage = coverage;
   r.completed = 12;
   r.side_tilt_rad = 0.0123;
+  r.max_face_tilt_rad = 0.0456;
   r.rim_noise_mm = 0.0004;
   r.local_deviations = 3;
   r.blur_left_px = 1.01;
@@ -45,6 +46,7 @@ const std::set<std::string> kRecordKeys = {
 TEST(InspectionRecord, MeasuredRecordHasEveryKeyAndRoundTrips) {
   InspectionParams params;
   params.thickness_mm = 0.25;
+  params.side_faces = SideFaceModel::kCentreNormal;
   const InspectionRecord record = MeasuredRecord(SomeResult(0.1031, 0.85), params, {0.1, 0.004}, kInputs);
   EXPECT_EQ(record.judgement.verdict, Verdict::kFail);
   EXPECT_TRUE(record.judgement.marginal);
@@ -62,6 +64,14 @@ TEST(InspectionRecord, MeasuredRecordHasEveryKeyAndRoundTrips) {
   EXPECT_EQ(back.values.flatness_mm, 0.1031);
   EXPECT_EQ(back.inputs.plane_sha256, std::string(64, 'b'));
   EXPECT_EQ(back.spec.guard_band_mm, 0.004);
+  EXPECT_EQ(j["rim_model"]["side_faces"], "centre");
+  EXPECT_EQ(back.side_faces, SideFaceModel::kCentreNormal);
+  EXPECT_EQ(back.max_face_tilt_rad, 0.0456);
+  nlohmann::json bad = j;
+  bad["rim_model"]["side_faces"] = "sideways";
+  EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(bad); }).rfind(
+                "inspection record: key 'rim_model.side_faces': unknown side-face model 'sideways' (expected local", 0),
+            0u);
 }
 
 TEST(InspectionRecord, NotMeasuredHasNoVerdictAndNoValues) {

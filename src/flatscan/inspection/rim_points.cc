@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <span>
 
 #include "flatscan/reconstruction/outlier_filter.h"
 #include "flatscan/reconstruction/rectified_stereo.h"
+#include "flatscan/util/error.h"
 
 namespace flatscan {
 namespace {
@@ -68,7 +70,7 @@ class RightSilhouettes {
   std::vector<std::vector<Eigen::Vector2d>> padded_;
 };
 
-// One triangulation of all matches with the side faces along a given direction.
+// One triangulation of all matches, each with its own side-face direction.
 struct Triangulation {
   std::vector<InspectedPoint> points;
   std::vector<double> weight;      // inverse variance: a crossing's x error grows as 1 / |n_x|
@@ -90,12 +92,12 @@ class Triangulator {
   }
   const RectifiedStereo& stereo() const { return stereo_; }
 
-  // `side`: the side faces' direction, camera-1 frame. The radius filter runs on the
-  // first call only: a change of the side-face direction moves points by t times the
-  // change of tilt (micrometres), not across a 0.25 mm radius; later calls keep the
-  // first call's verdict per match.
-  Triangulation Run(const Eigen::Vector3d& side_cam1) {
-    const Eigen::Vector3d side = stereo_.rect1_from_cam1 * side_cam1;
+  // `side_cam1`: per match, the side faces' direction there, camera-1 frame. The radius
+  // filter runs on the first call only: a change of the side-face direction moves
+  // points by t times the change of tilt (micrometres), not across a 0.25 mm radius;
+  // later calls keep the first call's verdict per match.
+  Triangulation Run(const std::vector<Eigen::Vector3d>& side_cam1) {
+    FLATSCAN_CHECK(side_cam1.size() == outline_.matches.size());
     const Eigen::Matrix3d cam1_from_rect1 = stereo_.rect1_from_cam1.transpose();
     Triangulation t;
     std::vector<Eigen::Vector3d> cam1;
@@ -107,8 +109,8 @@ class Triangulator {
       InspectedPoint p;
       BottomPoint bp;
       if (params_.thickness_correction) {
-        bp = TriangulateBottomPoint(stereo_, a.x, a.row, Eigen::Vector2d(a.nx, a.ny), silhouettes_[mi], b.x, side,
-                                    params_.thickness_mm);
+        bp = TriangulateBottomPoint(stereo_, a.x, a.row, Eigen::Vector2d(a.nx, a.ny), silhouettes_[mi], b.x,
+                                    stereo_.rect1_from_cam1 * side_cam1[mi], params_.thickness_mm);
         if (!bp.valid) continue;
         p.left_edge = bp.left_edge;
         p.right_edge = bp.right_edge;
@@ -267,7 +269,10 @@ RimPoints CollectRim(const Triangulation& tri, double pixel_scale, bool thicknes
     if (!tri.keep[i] || drop[i]) continue;
     index_in_points[i] = static_cast<int>(out.points.size());
     out.points.push_back(tri.points[i]);
-    if (!tri.points[i].outer) out.inner.Add(tri.points[i].cam1, tri.points[i].height_mm, tri.weight[i]);
+    if (!tri.points[i].outer) {
+      out.inner.Add(tri.points[i].cam1, tri.points[i].height_mm, tri.weight[i]);
+      out.inner_match.push_back(tri.match[i]);
+    }
   }
   for (const auto& [chain_index, i] : chain_order) {
     if (drop[i]) continue;
@@ -275,55 +280,167 @@ RimPoints CollectRim(const Triangulation& tri, double pixel_scale, bool thicknes
     out.rim_chain_index.push_back(chain_index);
     out.rim_row.push_back(tri.row[i]);
     out.rim_point.push_back(index_in_points[i]);
+    out.rim_match.push_back(tri.match[i]);
   }
   return out;
 }
 
+// How each match's height depends on the side faces' direction (FaceCoupling,
+// flatness/rim_heights.h): minus d height / d (S's horizontal part along e1, e2), from
+// two more triangulations with every face turned by kProbeRad about each axis. The
+// dependence is linear (Z / B t theta / |n_x|) except where a camera's edge flips
+// between the runs (a view turn): such a match gets no gain.
+std::vector<Eigen::Vector2d> HeightGains(Triangulator& triangulator, const Triangulation& base,
+                                         const std::vector<Eigen::Vector3d>& sides, const SupportPlane& plane) {
+  constexpr double kProbeRad = 1e-3;
+  const auto [e1, e2] = PlaneAxes(plane);
+  const size_t n = sides.size();
+  std::vector<int> at(n, -1);
+  for (size_t i = 0; i < base.points.size(); ++i) at[base.match[i]] = static_cast<int>(i);
+  std::vector<Eigen::Vector2d> gain(n, Eigen::Vector2d::Zero());
+  std::vector<char> linear(n, 1);
+  for (int axis = 0; axis < 2; ++axis) {
+    std::vector<Eigen::Vector3d> probe(n);
+    for (size_t m = 0; m < n; ++m) probe[m] = (sides[m] + kProbeRad * (axis == 0 ? e1 : e2)).normalized();
+    const Triangulation turned = triangulator.Run(probe);
+    std::vector<char> seen(n, 0);
+    for (size_t i = 0; i < turned.points.size(); ++i) {
+      const int m = turned.match[i], j = at[m];
+      if (j < 0) continue;
+      seen[m] = 1;
+      const bool same_edges = turned.seen[i].left_edge == base.seen[j].left_edge &&
+                              turned.seen[i].right_edge == base.seen[j].right_edge;
+      if (!same_edges) linear[m] = 0;
+      // h = h_true + gain . (S_true - S_assumed): turning the assumed face by +kProbeRad
+      // changes the height by -gain times that.
+      gain[m][axis] = -(turned.points[i].height_mm - base.points[j].height_mm) / kProbeRad;
+    }
+    for (size_t m = 0; m < n; ++m)
+      if (!seen[m]) linear[m] = 0;
+  }
+  for (size_t m = 0; m < n; ++m)
+    if (!linear[m]) gain[m].setZero();
+  return gain;
+}
+
+// The coupling of a rim's samples: each sample's gain and the direction it was
+// triangulated with, by match.
+FaceCoupling Coupling(const RimPoints& rim, const std::vector<Eigen::Vector2d>& gain,
+                      const std::vector<Eigen::Vector3d>& sides, const SupportPlane& plane) {
+  const auto [e1, e2] = PlaneAxes(plane);
+  FaceCoupling c;
+  auto add = [&](const std::vector<int>& matches, std::vector<Eigen::Vector2d>* g, std::vector<Eigen::Vector2d>* s) {
+    for (int m : matches) {
+      g->push_back(gain[m]);
+      s->emplace_back(sides[m].dot(e1), sides[m].dot(e2));
+    }
+  };
+  add(rim.rim_match, &c.rim_gain, &c.rim_assumed);
+  add(rim.inner_match, &c.inner_gain, &c.inner_assumed);
+  return c;
+}
+
 }  // namespace
 
-  // Side-face direction. A cut sheet's side faces are perpendicular to the sheet. The
-  // first pass takes them along the support normal; a part resting tilted on three
-  // points (burrs, warp) has its faces tilted with it, and where the two cameras see
-  // different edges a face tilt theta shifts the silhouette seen at the top edge by
-  // t theta, i.e. heights by about t theta Z / baseline (more on sides running near the
-  // epipolar rows). So the sheet's normal is estimated from the first pass: the normal
-  // of the fitted warp surface (cubic, ridge on the curvature) at the footprint's
-  // centre, which separates the rest tilt from the warp's odd terms (the rim's
-  // least-squares plane does not: its tilt mixes both). The faces are then taken along
-  // that normal everywhere (assumed: the faces are parallel to the sheet normal at the
-  // part's centre, exact for a flat tilted sheet; a warped sheet's local normal at
-  // the rim differs by the warp's slope there, which is not modelled).
+SideFaceField::SideFaceField(const SupportPlane& plane) : model_(SideFaceModel::kSupportNormal), up_(plane.normal) {}
+
+SideFaceField::SideFaceField(SideFaceModel model, const WarpSurface& warp, const std::optional<Eigen::Vector3d>& centre,
+                             double max_tilt_rad)
+    : model_(model), up_(warp.plane().normal), max_tilt_rad_(max_tilt_rad), warp_(warp) {
+  if (model_ == SideFaceModel::kSupportNormal) return;
+  if (centre) centre_normal_ = Capped(warp.SheetNormal(*centre));
+  if (model_ == SideFaceModel::kCentreNormal && !centre) model_ = SideFaceModel::kSupportNormal;
+}
+
+Eigen::Vector3d SideFaceField::Capped(const Eigen::Vector3d& n) const {
+  if (!n.allFinite()) return up_;
+  const double tilt = std::acos(std::clamp(n.dot(up_), -1.0, 1.0));
+  if (tilt <= max_tilt_rad_) return n;
+  const Eigen::Vector3d across = n - n.dot(up_) * up_;
+  return (std::cos(max_tilt_rad_) * up_ + std::sin(max_tilt_rad_) * across.normalized()).normalized();
+}
+
+Eigen::Vector3d SideFaceField::At(const Eigen::Vector3d& p) const {
+  switch (model_) {
+    case SideFaceModel::kSupportNormal: return up_;
+    case SideFaceModel::kCentreNormal: return centre_normal_;
+    case SideFaceModel::kLocalNormal: break;
+  }
+  // A match never triangulated has no place on the sheet: the centre's normal.
+  if (!p.allFinite()) return centre_normal_.allFinite() ? centre_normal_ : up_;
+  return Capped(warp_->SheetNormal(p));
+}
+
+double SideFaceField::Tilt(const Eigen::Vector3d& p) const {
+  return std::acos(std::clamp(At(p).dot(up_), -1.0, 1.0));
+}
+
+// Side-face direction (geometry/side_faces.h). The first pass takes the faces along
+// the support normal. A sheet cut square keeps its faces perpendicular to the local
+// sheet, and where the two cameras see different edges a face leaning by theta
+// across the rim moves the triangulated height by about (Z / B) t theta / |n_x|
+// (tens of micrometres for a 0.3 mm sheet at the slopes of a warped part). The sheet
+// (the warp surface: cubic, ridge on the curvature, none on the tilt: a tilt ridge
+// biased the slopes the faces need, by 6 um on a part) is therefore fitted together
+// with the faces it implies: with each height's measured dependence on its face's
+// direction in the fit's design (FaceCoupling), the fit solves for the sheet whose
+// normals, used as the faces, reproduce the measured heights. Each match then gets
+// the surface's normal at its own point and is triangulated again, until the
+// directions settle (one or two passes: the dependence is linear). Fitting the sheet
+// to the heights alone and iterating converges to the same sheet but slowly: the
+// heights' error feeds back into the fitted slope with the same sign (each pass left
+// 0.5-0.6 of the last change, and on some parts a cubic mode drifted without
+// settling). The centre model takes one direction, the surface's normal at the
+// footprint centre, in two plain passes as earlier versions did.
 RimPoints TriangulateRim(const StereoRectification& rectification, const SupportPlane& plane,
                          const StereoOutline& outline, const InspectionParams& params) {
   Triangulator triangulator(rectification.stereo(), plane, outline, params);
   const double pixel_scale = 1.0 / triangulator.stereo().f;  // mm per pixel per mm of depth
-  RimPoints rim = CollectRim(triangulator.Run(plane.normal), pixel_scale, params.thickness_correction);
-  if (!params.thickness_correction || !params.estimate_side_tilt) return rim;
-  const std::optional<Eigen::Vector3d> centre =
+  const size_t n = outline.matches.size();
+  std::vector<Eigen::Vector3d> sides(n, plane.normal);
+  Triangulation tri = triangulator.Run(sides);
+  RimPoints rim = CollectRim(tri, pixel_scale, params.thickness_correction);
+  rim.faces = SideFaceField(plane);
+  if (!params.thickness_correction || params.side_faces == SideFaceModel::kSupportNormal) return rim;
+  rim.footprint_centre =
       FootprintCentre(rectification.left().camera(), plane, outline.left, outline.left.contours[outline.left_part]);
-  // Two passes: the first estimate comes from heights biased by the very tilt it
-  // estimates (measured: 10-20% too large); the second is within a few percent.
-  for (int pass = 0; pass < 2 && centre && rim.rim.size() >= 20; ++pass) {
-    // A small ridge on the tilt terms: among tilts the data cannot tell from the odd
-    // cubic terms (two opposite sides measured, the others along the rows) the lesser
-    // (measured on 300 parts: 1e-3 halves well-determined tilts, 0 lets low-coverage
-    // parts take spurious ones).
+  const bool local = params.side_faces == SideFaceModel::kLocalNormal;
+  const std::vector<Eigen::Vector2d> gain =
+      local ? HeightGains(triangulator, tri, sides, plane) : std::vector<Eigen::Vector2d>();
+  // Each match's direction is taken where it was first triangulated: later passes move
+  // a point by micrometres (the normal turns by the curvature times that: 1e-5 rad).
+  std::vector<Eigen::Vector3d> where(n, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  // Settled when the directions move by 1e-4 rad RMS: a height then moves by the
+  // depth-to-baseline ratio times t times that over |n_x|, 0.1 um for a 0.3 mm sheet
+  // on the paper rig's steep sides.
+  constexpr double kSettledRad = 1e-4;
+  const int passes = local ? 4 : 2;
+  for (int pass = 0; pass < passes && rim.rim.size() >= 20; ++pass) {
+    for (size_t i = 0; i < tri.points.size(); ++i)
+      if (!where[tri.match[i]].allFinite()) where[tri.match[i]] = tri.points[i].cam1;
     WarpFitOptions fit;
-    fit.tilt_ridge = 1e-4;
-    Eigen::Vector3d normal = WarpSurface::Fit(plane, rim.rim, rim.inner, fit).SheetNormal(*centre);
-    // A tilt beyond what a resting part can have is a failed fit: capped.
-    const double tilt = std::acos(std::clamp(normal.dot(plane.normal), -1.0, 1.0));
-    if (tilt > params.max_side_tilt_rad)
-      normal = (plane.normal + std::tan(params.max_side_tilt_rad) *
-                                  (normal - normal.dot(plane.normal) * plane.normal).normalized()).normalized();
-    const double side_tilt = std::min(tilt, params.max_side_tilt_rad);
-    if (!normal.allFinite() || side_tilt <= 1e-5) {
-      rim.side_tilt_rad = side_tilt;
-      break;
+    fit.tilt_ridge = 0;
+    const FaceCoupling coupling = local ? Coupling(rim, gain, sides, plane) : FaceCoupling();
+    const SideFaceField faces(params.side_faces, WarpSurface::Fit(plane, rim.rim, rim.inner, fit, &coupling),
+                              rim.footprint_centre, params.max_face_tilt_rad);
+    std::vector<Eigen::Vector3d> next(n);
+    double change = 0;
+    for (size_t m = 0; m < n; ++m) {
+      next[m] = faces.At(where[m]);
+      change += (next[m] - sides[m]).squaredNorm();
     }
-    rim = CollectRim(triangulator.Run(normal), pixel_scale, params.thickness_correction);
-    rim.side_tilt_rad = side_tilt;
+    rim.faces = faces;
+    // Settled: the last triangulation's directions are within kSettledRad of the fit's.
+    if (pass > 0 && std::sqrt(change / static_cast<double>(n)) <= kSettledRad) break;
+    sides = std::move(next);
+    tri = triangulator.Run(sides);
+    const std::optional<Eigen::Vector3d> centre = rim.footprint_centre;
+    rim = CollectRim(tri, pixel_scale, params.thickness_correction);
+    rim.footprint_centre = centre;
+    rim.faces = faces;
   }
+  rim.side_tilt_rad = rim.footprint_centre ? rim.faces.Tilt(*rim.footprint_centre) : 0.0;
+  for (const Eigen::Vector3d& p : rim.rim.points) rim.max_face_tilt_rad = std::max(rim.max_face_tilt_rad, rim.faces.Tilt(p));
   return rim;
 }
 

@@ -82,13 +82,47 @@ TEST(TriangulateRim, SideFacesFollowTheRestTiltAndTheThicknessMatters) {
   ASSERT_GT(true_tilt, 0.012);
   EXPECT_NEAR(rim.side_tilt_rad, true_tilt, 0.15 * true_tilt);
   InspectionParams no_tilt = sc.Params();
-  no_tilt.estimate_side_tilt = false;
+  no_tilt.side_faces = SideFaceModel::kSupportNormal;
   EXPECT_EQ(TriangulateRim(sc.rectification, sc.station.plane, sc.outline, no_tilt).side_tilt_rad, 0.0);
   InspectionParams no_correction = sc.Params();
   no_correction.thickness_correction = false;
   const std::vector<double> uncorrected =
       sc.HeightErrors(TriangulateRim(sc.rectification, sc.station.plane, sc.outline, no_correction));
   EXPECT_GT(uncorrected[uncorrected.size() / 2], 0.05);  // a large fraction of the 0.25 mm sheet
+}
+
+// The face directions per model: the support normal, the fitted sheet's normal at the
+// centre or at the point, and a tilt beyond the cap taken at the cap in its azimuth.
+TEST(SideFaceField, DirectionsPerModelAndTheTiltCap) {
+  SupportPlane plane;
+  plane.normal = Eigen::Vector3d(0, 0, -1);
+  plane.point = Eigen::Vector3d(0, 0, 200);
+  // A sheet bent along x: height 0.002 x^2 (mm), slope 0.004 x.
+  HeightSamples rim;
+  // (A rectangle's sides: on an ellipse x^2 and y^2 would not be told apart.)
+  for (int k = 0; k < 400; ++k) {
+    const double u = -1 + 2.0 * (k % 100) / 100;
+    const int side = k / 100;
+    const double x = side < 2 ? (side == 0 ? 8 : -8) : 8 * u, y = side < 2 ? 5 * u : (side == 2 ? 5 : -5);
+    const double h = 0.002 * x * x;
+    rim.Add(Eigen::Vector3d(x, y, 200 - h), h, 1.0);
+  }
+  WarpFitOptions fit;
+  fit.curvature_ridge = fit.curvature_prior_mm = 0;
+  const WarpSurface warp = WarpSurface::Fit(plane, rim, {}, fit);
+  const Eigen::Vector3d centre(0, 0, 200), edge(8, 0, 200 - 0.128);
+  EXPECT_EQ(SideFaceField(plane).At(edge), plane.normal);
+  const SideFaceField at_centre(SideFaceModel::kCentreNormal, warp, centre, 0.25);
+  EXPECT_LT((at_centre.At(edge) - plane.normal).norm(), 1e-9);
+  const SideFaceField local(SideFaceModel::kLocalNormal, warp, centre, 0.25);
+  EXPECT_NEAR(local.Tilt(edge), std::atan(0.032), 1e-6);
+  // Heights grow toward -z here: the sheet rises toward +x, its normal leans to -x.
+  EXPECT_NEAR(local.At(edge).x(), -std::sin(std::atan(0.032)), 1e-6);
+  const SideFaceField capped(SideFaceModel::kLocalNormal, warp, centre, 0.02);
+  EXPECT_NEAR(capped.Tilt(edge), 0.02, 1e-12);
+  EXPECT_LT((capped.At(edge).head<2>().normalized() - local.At(edge).head<2>().normalized()).norm(), 1e-12);
+  // A point never triangulated gets the centre's direction.
+  EXPECT_LT((local.At(Eigen::Vector3d::Constant(NAN)) - plane.normal).norm(), 1e-9);
 }
 
 }  // namespace

@@ -61,8 +61,8 @@ void WritePng(const std::filesystem::path& path, const cv::Mat1b& image) {
 std::vector<Eigen::Vector3d> PartOutline(const PartGeometry& g, const Rigid3d& support_from_part) {
   std::vector<Eigen::Vector3d> out;
   for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.5)) {
-    out.push_back(support_from_part * Eigen::Vector3d(p.x(), p.y(), g.RimZ(p)));
-    out.push_back(support_from_part * Eigen::Vector3d(p.x(), p.y(), g.WarpZ(p) + g.thickness));
+    out.push_back(support_from_part * g.RimPoint(p));
+    out.push_back(support_from_part * g.SheetPoint(p, g.thickness));
   }
   return out;
 }

@@ -17,21 +17,22 @@ double BoxSdf(const Eigen::Vector2d& p, const Eigen::Vector2d& center, const Eig
   return RoundedRectSdf(p - center, half.x(), half.y(), 0.0);
 }
 
-// Minimum of f over the segment [p, q], from f at both ends, the middle, and the
-// vertex of the parabola through them (the segment is short next to the outline's
-// curvature, so this is accurate to its cubic term).
+// Minimum of f over the ray segment [a, b] (ray parameters), from f at both ends, the
+// middle, and the vertex of the parabola through them (the segment crosses a sheet a
+// fraction of a millimetre thick, short next to the outline's curvature, so this is
+// accurate to its cubic term).
 template <typename F>
-double SegmentMinimum(const F& f, const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
-  const double fp = f(p);
-  if ((q - p).squaredNorm() < 1e-18) return fp;
-  const double fq = f(q), fm = f(0.5 * (p + q));
-  double best = std::min({fp, fq, fm});
-  // Parabola through the three values: f(t) = fp + b1 t + b2 t^2, t in [0, 1].
-  const double b2 = 2 * (fp - 2 * fm + fq);
+double SegmentMinimum(const F& f, double a, double b) {
+  const double fa = f(a);
+  if (std::abs(b - a) < 1e-15) return fa;
+  const double fb = f(b), fm = f(0.5 * (a + b));
+  double best = std::min({fa, fb, fm});
+  // Parabola through the three values: f(t) = fa + b1 t + b2 t^2, t in [0, 1].
+  const double b2 = 2 * (fa - 2 * fm + fb);
   if (b2 > 1e-15) {
-    const double b1 = 4 * fm - 3 * fp - fq;
+    const double b1 = 4 * fm - 3 * fa - fb;
     const double t = -b1 / (2 * b2);
-    if (t > 0 && t < 1) best = std::min(best, f(p + t * (q - p)));
+    if (t > 0 && t < 1) best = std::min(best, f(a + t * (b - a)));
   }
   return best;
 }
@@ -63,6 +64,33 @@ Eigen::Vector2d PartGeometry::WarpGradient(const Eigen::Vector2d& p) const {
   const double dX = 2 * c.bend_x * X + c.twist * Y + 3 * c.c30 * X * X + 2 * c.c21 * X * Y + c.c12 * Y * Y;
   const double dY = 2 * c.bend_y * Y + c.twist * X + c.c21 * X * X + 2 * c.c12 * X * Y + 3 * c.c03 * Y * Y;
   return {dX / half_width, dY / half_height};
+}
+
+Eigen::Vector3d PartGeometry::FaceDirection(const Eigen::Vector2d& q) const {
+  if (side_faces == SideFaceModel::kCentreNormal) return Eigen::Vector3d::UnitZ();
+  const Eigen::Vector2d g = WarpGradient(q);
+  return Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
+}
+
+Eigen::Vector3d PartGeometry::SheetPoint(const Eigen::Vector2d& q, double s) const {
+  return Eigen::Vector3d(q.x(), q.y(), WarpZ(q)) + s * FaceDirection(q);
+}
+
+Eigen::Vector2d PartGeometry::SheetCoordinates(const Eigen::Vector3d& x, double* s, const Eigen::Vector2d* start) const {
+  // x = B(q) + s S(q): s = (x_z - w(q)) / S_z(q), q = x_xy - s S_xy(q), a fixed point
+  // that contracts by about |s| times S's rate of change plus the squared slope
+  // (below 0.02 for slopes up to 0.12): a few steps from q = x_xy to 1e-10 mm, far
+  // below what the measurement can see.
+  Eigen::Vector2d q = start ? *start : Eigen::Vector2d(x.head<2>());
+  for (int iter = 0; iter < 12; ++iter) {
+    const Eigen::Vector3d f = FaceDirection(q);
+    *s = (x.z() - WarpZ(q)) / f.z();
+    const Eigen::Vector2d next = x.head<2>() - *s * f.head<2>();
+    const bool settled = (next - q).squaredNorm() < 1e-20;  // 1e-10 mm
+    q = next;
+    if (settled) break;
+  }
+  return q;
 }
 
 std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) const {
@@ -121,7 +149,7 @@ std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) co
 
 std::vector<Eigen::Vector3d> PartGeometry::SampleRim(double spacing) const {
   std::vector<Eigen::Vector3d> rim;
-  for (const Eigen::Vector2d& p : SampleOuterOutline(spacing)) rim.emplace_back(p.x(), p.y(), RimZ(p));
+  for (const Eigen::Vector2d& p : SampleOuterOutline(spacing)) rim.push_back(RimPoint(p));
   return rim;
 }
 
@@ -220,6 +248,7 @@ PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng) {
     g.notches.push_back(n);
     ++i;
   }
+  g.side_faces = spec.side_faces;
   g.warp.bend_x = pick(spec.bending_mm);
   g.warp.bend_y = pick(spec.bending_mm);
   g.warp.twist = pick(spec.twist_mm);
@@ -235,7 +264,19 @@ PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng) {
 }
 
 PartOccluder::PartOccluder(const PartGeometry& geometry, const Rigid3d& support_from_part)
-    : geometry_(geometry), support_from_part_(support_from_part), part_from_support_(support_from_part.Inverse()) {}
+    : geometry_(geometry), support_from_part_(support_from_part), part_from_support_(support_from_part.Inverse()) {
+  if (geometry.side_faces == SideFaceModel::kCentreNormal) return;
+  // The largest horizontal part of S over the footprint (a 41 x 41 grid; the cubic's
+  // slope is smooth), times the faces' reach either side of the bottom surface, with a
+  // margin for what the grid misses.
+  double lean = 0;
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j) {
+      const Eigen::Vector2d q(geometry.half_width * (i / 20.0 - 1), geometry.half_height * (j / 20.0 - 1));
+      lean = std::max(lean, geometry.FaceDirection(q).head<2>().norm());
+    }
+  lean_ = 1.2 * lean * std::max(geometry.thickness, geometry.wall_height) + 1e-6;
+}
 
 double PartOccluder::IntersectSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double offset) const {
   double s = (offset - o.z()) / d.z();
@@ -250,40 +291,82 @@ double PartOccluder::IntersectSurface(const Eigen::Vector3d& o, const Eigen::Vec
   return s;
 }
 
+double PartOccluder::RefineToLevel(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double offset, double l) const {
+  // Newton steps on s(o + l d) = offset from the vertical offset's solution (within
+  // offset times the squared slope of it): S is the bottom surface's normal, so
+  // ds / dl = S . d to first order.
+  Eigen::Vector2d q = (o + l * d).head<2>();
+  for (int iter = 0; iter < 8; ++iter) {
+    double s = 0;
+    q = geometry_.SheetCoordinates(o + l * d, &s, &q);
+    const double step = (s - offset) / geometry_.FaceDirection(q).dot(d);
+    l -= step;
+    if (std::abs(step) * d.norm() < 1e-10) break;
+  }
+  return l;
+}
+
 double PartOccluder::RaySignedDistance(const Ray& ray) const {
   const Eigen::Vector3d o = part_from_support_ * ray.origin;
   const Eigen::Vector3d d = part_from_support_.rotation * ray.direction;
   const PartGeometry& g = geometry_;
-  auto xy_at = [&](double s) { return Eigen::Vector2d(o.x() + s * d.x(), o.y() + s * d.y()); };
-  const double s_top = IntersectSurface(o, d, g.thickness);
-  const double s_mid = g.thickness > 0 ? IntersectSurface(o, d, 0.0) : s_top;
-  // Sheet: between the top and bottom surfaces the ray is inside the solid wherever
-  // it is over the footprint.
-  auto footprint = [&](const Eigen::Vector2d& p) { return g.FootprintSdf(p); };
-  double d_min = SegmentMinimum(footprint, xy_at(s_top), xy_at(s_mid));
-  if (g.wall_height > 0) {
-    // Walls: the outer band of width t, from the sheet's bottom down to the rim.
-    const double s_rim = IntersectSurface(o, d, -g.wall_height);
-    auto wall = [&](const Eigen::Vector2d& p) {
-      const double outer = g.OuterSdf(p);
-      return std::max(outer, -g.thickness - outer);
-    };
-    d_min = std::min(d_min, SegmentMinimum(wall, xy_at(s_mid), xy_at(s_rim)));
-  }
-  return d_min;
+  const bool walls = g.wall_height > 0;
+  // Where the ray meets the bottom surface and its vertical offsets to the top and to
+  // the walls' rim (the levels of faces along z).
+  const double l_bottom = IntersectSurface(o, d, 0.0);
+  const double l_top = g.thickness > 0 ? IntersectSurface(o, d, g.thickness) : l_bottom;
+  const double l_rim = walls ? IntersectSurface(o, d, -g.wall_height) : l_bottom;
+  // The footprint point q under the ray's point at parameter l: the point's own (x, y)
+  // for faces along z, else its sheet coordinates (successive points lie close together
+  // on the ray: each starts from the last q).
+  bool vertical = true, started = false;
+  Eigen::Vector2d last_q = o.head<2>();
+  auto q_at = [&](double l) {
+    if (vertical) return Eigen::Vector2d(o.x() + l * d.x(), o.y() + l * d.y());
+    double s = 0;
+    last_q = g.SheetCoordinates(o + l * d, &s, started ? &last_q : nullptr);
+    started = true;
+    return last_q;
+  };
+  // Sheet: between its top and bottom levels the ray is inside the solid wherever it is
+  // over the footprint; walls: the outer band of width t, from the sheet's bottom down
+  // to the rim.
+  auto footprint = [&](double l) { return g.FootprintSdf(q_at(l)); };
+  auto wall = [&](double l) {
+    const double outer = g.OuterSdf(q_at(l));
+    return std::max(outer, -g.thickness - outer);
+  };
+  auto distance = [&](double top, double rim) {
+    double d_min = SegmentMinimum(footprint, top, l_bottom);
+    if (walls) d_min = std::min(d_min, SegmentMinimum(wall, l_bottom, rim));
+    return d_min;
+  };
+  const double along_z = distance(l_top, l_rim);
+  if (g.side_faces == SideFaceModel::kCentreNormal) return along_z;
+  // Sheet coordinates move a point by at most lean_ from where it is, so away from the
+  // outline the distance with faces along z, less lean_, is a conservative answer (most
+  // of the renderer's block tests); only rays near the outline pay for the exact one.
+  if (std::abs(along_z) > 2 * lean_) return along_z - std::copysign(lean_, along_z);
+  vertical = false;
+  return distance(g.thickness > 0 ? RefineToLevel(o, d, g.thickness, l_top) : l_bottom,
+                  walls ? RefineToLevel(o, d, -g.wall_height, l_rim) : l_bottom);
 }
 
 std::vector<Eigen::Vector3d> PartOccluder::BoundingPoints() const {
   const PartGeometry& g = geometry_;
-  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
+  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo, reach = 0;
   for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.5)) {
-    z_lo = std::min(z_lo, g.RimZ(p));
-    z_hi = std::max(z_hi, g.WarpZ(p) + g.thickness);
+    const Eigen::Vector3d rim = g.RimPoint(p), top = g.SheetPoint(p, g.thickness);
+    z_lo = std::min(z_lo, rim.z());
+    z_hi = std::max(z_hi, top.z());
+    // Faces along the local normal lean out of the footprint by up to this much.
+    reach = std::max({reach, (rim.head<2>() - p).norm(), (top.head<2>() - p).norm()});
   }
   std::vector<Eigen::Vector3d> out;
   for (double z : {z_lo, z_hi})
     for (double sx : {-1.0, 1.0})
-      for (double sy : {-1.0, 1.0}) out.push_back(support_from_part_ * Eigen::Vector3d(sx * g.half_width, sy * g.half_height, z));
+      for (double sy : {-1.0, 1.0})
+        out.push_back(support_from_part_ * Eigen::Vector3d(sx * (g.half_width + reach), sy * (g.half_height + reach), z));
   return out;
 }
 
@@ -341,6 +424,7 @@ nlohmann::json PartGeometryToJson(const PartGeometry& g) {
   j["corner_radius_mm"] = g.corner_radius;
   j["thickness_mm"] = g.thickness;
   j["wall_height_mm"] = g.wall_height;
+  j["side_faces"] = SideFaceModelName(g.side_faces);
   j["holes"] = nlohmann::json::array();
   for (const Hole& h : g.holes) j["holes"].push_back({{"centre_mm", {h.center.x(), h.center.y()}}, {"radius_mm", h.radius}});
   j["notches"] = nlohmann::json::array();

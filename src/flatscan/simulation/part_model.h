@@ -4,10 +4,15 @@
 // folded-down walls along its outer edge.
 //
 // Part frame (mm): the footprint lies in (x, y) centred on the origin, z up. The
-// sheet's bottom surface is z = w(x, y), its top z = w(x, y) + t, and its side faces
-// are vertical (they follow the outline). With walls of height H the outer band of
-// width t (the wall) extends down to z = w(x, y) - H, so the part rests on the walls'
-// bottom edges. The warp, with X = x / a and Y = y / b (a, b the half sizes), is
+// sheet's bottom surface is B(q) = (q, w(q)) over the footprint's points q, and the
+// sheet is {B(q) + s S(q) : 0 <= s <= t}, S(q) the side-face direction
+// (geometry/side_faces.h): the unit normal (-grad w, 1) / |.| of the bottom surface
+// (side_faces local: a square cut sheet, then warped; its top is the offset surface
+// and its side faces stand perpendicular to the local sheet) or +z (centre: the
+// sheet's normal at the origin, where grad w = 0; top z = w + t, faces along z). With
+// walls of height H the outer band of width t (the wall) extends down to s = -H, so
+// the part rests on the walls' bottom edges. The warp, with X = x / a and Y = y / b
+// (a, b the half sizes), is
 //   w = bend_x X^2 + bend_y Y^2 + twist X Y + c30 X^3 + c21 X^2 Y + c12 X Y^2 + c03 Y^3,
 // each coefficient in mm (constant and linear terms are rigid motions and omitted).
 //
@@ -20,6 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "flatscan/geometry/rigid3.h"
+#include "flatscan/geometry/side_faces.h"
 #include "flatscan/simulation/occluder.h"
 #include "flatscan/simulation/scene_config.h"
 #include "flatscan/util/random.h"
@@ -51,6 +57,7 @@ struct PartGeometry {
   double thickness = 0.2;    // t, mm
   double wall_height = 0.0;  // H, mm (0: flat sheet)
   Warp warp;
+  SideFaceModel side_faces = SideFaceModel::kLocalNormal;  // local or centre (see the top of this file)
 
   // Signed distance (mm, negative inside) to the outer outline (rounded rectangle
   // minus notches), and to the footprint (also minus holes).
@@ -59,8 +66,15 @@ struct PartGeometry {
   // w(x, y) and its gradient.
   double WarpZ(const Eigen::Vector2d& p) const;
   Eigen::Vector2d WarpGradient(const Eigen::Vector2d& p) const;
-  // z of the bottom rim under (x, y): w - H.
-  double RimZ(const Eigen::Vector2d& p) const { return WarpZ(p) - wall_height; }
+  // S(q): unit side-face direction over footprint point q (bottom edge to top edge).
+  Eigen::Vector3d FaceDirection(const Eigen::Vector2d& q) const;
+  // B(q) + s S(q), and its inverse: the (q, s) of a point x near the sheet (s returned
+  // through `s`; to 1e-10 mm for |s| S's curvature << 1).
+  Eigen::Vector3d SheetPoint(const Eigen::Vector2d& q, double s) const;
+  // `start`: a guess of q (default: x's own (x, y)); a close one saves steps.
+  Eigen::Vector2d SheetCoordinates(const Eigen::Vector3d& x, double* s, const Eigen::Vector2d* start = nullptr) const;
+  // The bottom rim's point over outline point p: B(p) - H S(p) (B(p) without walls).
+  Eigen::Vector3d RimPoint(const Eigen::Vector2d& p) const { return SheetPoint(p, -wall_height); }
   // Total height of the silhouette-forming side face: t + H.
   double SideHeight() const { return thickness + wall_height; }
 
@@ -74,7 +88,7 @@ struct PartGeometry {
   Eigen::Vector3d CenterOfMass() const;
 };
 
-// Random part from the scene's part ranges.
+// Random part from the scene's part ranges (and its side-face model).
 PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng);
 
 // A part placed on the support: support_from_part includes the rest pose.
@@ -85,9 +99,12 @@ class PartOccluder : public Occluder {
   std::vector<Eigen::Vector3d> BoundingPoints() const override;
 
  private:
-  // Ray parameter s where the ray meets z = w(x, y) + offset (part frame).
+  // Ray parameter where the ray o + l d (part frame) meets z = w(x, y) + offset, and
+  // where it meets the sheet's level s = offset, from the former's `l`.
   double IntersectSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double offset) const;
+  double RefineToLevel(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double offset, double l) const;
   const PartGeometry& geometry_;
+  double lean_ = 0;  // largest |q - x_xy| of a point x of the part (sheet coordinates), mm
   Rigid3d support_from_part_;
   Rigid3d part_from_support_;
 };

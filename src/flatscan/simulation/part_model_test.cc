@@ -69,6 +69,47 @@ TEST(PartModel, FlatSheetRestsFlatWithWallsOnTheirRim) {
   for (const Eigen::Vector3d& p : truth.rim) EXPECT_NEAR(p.z(), 0.0, 1e-9);
 }
 
+// A dome bent along x: its sheet slopes by 2 |bend| / a = 0.125 at the short edges.
+PartGeometry Dome(SideFaceModel faces) {
+  PartGeometry g = SharpRectangle();
+  g.thickness = 0.3;
+  g.warp.bend_x = -0.5;
+  g.side_faces = faces;
+  return g;
+}
+
+TEST(PartModel, SideFacesStandPerpendicularToTheLocalSheet) {
+  const PartGeometry local = Dome(SideFaceModel::kLocalNormal), centre = Dome(SideFaceModel::kCentreNormal);
+  const Eigen::Vector2d edge(local.half_width, 1.0);
+  const Eigen::Vector2d g = local.WarpGradient(edge);
+  ASSERT_NEAR(g.x(), -0.125, 1e-12);
+  // Local: the bottom surface's unit normal; centre: the part's z axis.
+  EXPECT_LT((local.FaceDirection(edge) - Eigen::Vector3d(-g.x(), -g.y(), 1).normalized()).norm(), 1e-15);
+  EXPECT_EQ(centre.FaceDirection(edge), Eigen::Vector3d::UnitZ());
+  // Sheet coordinates invert SheetPoint to 1e-11 mm, inside the sheet and on its walls.
+  for (const PartGeometry* part : {&local, &centre})
+    for (const double s : {0.0, 0.1, 0.3, -0.2})
+      for (const Eigen::Vector2d& q : {edge, Eigen::Vector2d(-3.0, 2.5), Eigen::Vector2d(0, 0)}) {
+        double s_back = 0;
+        const Eigen::Vector2d q_back = part->SheetCoordinates(part->SheetPoint(q, s), &s_back);
+        EXPECT_LT((q_back - q).norm(), 1e-11) << q.transpose() << " s " << s;
+        EXPECT_NEAR(s_back, s, 1e-11);
+      }
+  // Where the dome falls away, the local face's top edge leans out by t g = 0.0375 mm: a
+  // vertical ray 0.015 mm outside the bottom edge meets the local face and misses the
+  // centre model's vertical face.
+  const Rigid3d identity;
+  const Ray down{Eigen::Vector3d(edge.x() + 0.015, edge.y(), 5.0), Eigen::Vector3d(0, 0, -1)};
+  EXPECT_LT(PartOccluder(local, identity).RaySignedDistance(down), 0);
+  EXPECT_GT(PartOccluder(centre, identity).RaySignedDistance(down), 0);
+  // The truth is the bottom rim: the same for both models without walls.
+  EXPECT_EQ(RestAndPlacePart(local, 20.0, {0, 0}).flatness_mm, RestAndPlacePart(centre, 20.0, {0, 0}).flatness_mm);
+  // With walls the rim is the walls' lower edge, H along -S from the sheet's bottom.
+  PartGeometry walled = local;
+  walled.wall_height = 1.0;
+  EXPECT_LT((walled.RimPoint(edge) - (walled.SheetPoint(edge, 0) - 1.0 * walled.FaceDirection(edge))).norm(), 1e-15);
+}
+
 TEST(PartModel, SignedDistancesOfOutlineHolesAndNotches) {
   PartGeometry g = SharpRectangle();
   g.corner_radius = 2.0;

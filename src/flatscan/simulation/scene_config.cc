@@ -118,6 +118,15 @@ class Binder {
       }
     }
   }
+  void SideFaces(const std::string& key, SideFaceModel& value) {
+    if (out_) (*out_)[key] = SideFaceModelName(value);
+    const std::string expected = "local or centre";
+    if (const json* v = Value(key, expected)) {
+      if (!v->is_string() || (*v != "local" && *v != "centre"))
+        Fail("{}: {} must be {}, got {}", source_, Path(key), expected, v->dump());
+      value = ParseSideFaceModel(v->get<std::string>());
+    }
+  }
   void Distortion(const std::string& key, std::vector<double>& values) {
     if (out_) (*out_)[key] = values;
     const std::string expected = "a list of 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]])";
@@ -246,6 +255,7 @@ void BindScene(SceneConfig& s, Binder& b) {
     b.RangeField("notch_size_mm", p.notch_size_mm, 0.05, 100.0);
     b.RangeField("thickness_mm", p.thickness_mm, 0.0, 5.0);
     b.RangeField("wall_height_mm", p.wall_height_mm, 0.0, 10.0);
+    b.SideFaces("side_faces", p.side_faces);
     b.RangeField("bending_mm", p.bending_mm, -5.0, 5.0);
     b.RangeField("twist_mm", p.twist_mm, -5.0, 5.0);
     b.Number("random_warp_mm", p.random_warp_mm, 0.0, 5.0);

@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "flatscan/geometry/side_faces.h"
+
 namespace flatscan {
 
 struct Range {
@@ -90,6 +92,10 @@ struct PartSpec {
   Range notch_size_mm = {0.8, 2.0};
   Range thickness_mm = {0.1, 0.3};
   Range wall_height_mm = {0.0, 0.0};  // folded walls (0: none)
+  // How the side faces stand: local (perpendicular to the local sheet, as a cut and
+  // then warped sheet's do) or centre (along the sheet's normal at the part's centre,
+  // the model of earlier versions: exact for a flat sheet only).
+  SideFaceModel side_faces = SideFaceModel::kLocalNormal;
   Range bending_mm = {-0.15, 0.15};   // sag at the ends of each axis
   Range twist_mm = {-0.15, 0.15};     // corner height of the x*y term
   double random_warp_mm = 0.02;       // amplitude of each random 2nd/3rd-order term

@@ -85,6 +85,11 @@ TEST(SceneConfig, BadValuesNameTheFileAndField) {
   WriteText(json, R"({"camera": {"distortion": [0.1, 0.2, 0.3]}})");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }),
             j + ": camera.distortion must be a list of 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), got [0.1,0.2,0.3]");
+  WriteText(json, R"({"part": {"side_faces": "vertical"}})");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), j + ": part.side_faces must be local or centre, got \"vertical\"");
+  WriteText(json, R"({"part": {"side_faces": "centre"}})");
+  EXPECT_EQ(LoadSceneFile(json).part.side_faces, SideFaceModel::kCentreNormal);
+  EXPECT_EQ(ScenePreset("paper").part.side_faces, SideFaceModel::kLocalNormal);
   WriteText(json, R"({"preset": "nope"})");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), "unknown preset 'nope' (expected one of: paper, compact)");
   WriteText(json, "{not json");
