@@ -424,7 +424,7 @@ TEST(RigCalibrationCli, BadInputExitsWithCode2AndWritesNothing) {
       {"--left '" + d + "blank_l*.png' --right '" + d + "blank_r*.png' --board 9-6 --square 1",
        {"--board", "9-6", "9x6"}},
       {"--left '" + d + "blank_l*.png' --right '" + d + "blank_r*.png' --board 9x6 --square -2",
-       {"--square", "> 0"}},
+       {"--square", "must be in (0, 1000], got -2"}},
       {"--left '" + d + "blank_l*.png' --right '" + d + "blank_r*.png' --board 9x6 --square 1 --model fisheye",
        {"fisheye", "standard", "rational"}},
   };

@@ -3,6 +3,7 @@
 #include "flatscan/io/image_io.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/dataset.h"
+#include "flatscan/util/sha256.h"
 
 namespace flatscan {
 
@@ -19,7 +20,8 @@ CalibratedStation CalibrateSimulatedStation(const SceneConfig& scene, const std:
   plane_options.right_name = (dataset_dir / "markers/right.png").string();
   out.plane_report = CalibratePlane(out.rig_report.rig, ReadGreyImage(plane_options.left_name),
                                     ReadGreyImage(plane_options.right_name), plane_options);
-  WritePlaneFile(dataset_dir / "plane_calibrated.yml", out.plane_report.plane);
+  WritePlaneFile(dataset_dir / "plane_calibrated.yml", out.plane_report.plane,
+                 Sha256HexOfFile(dataset_dir / "rig_calibrated.yml"));
   return out;
 }
 

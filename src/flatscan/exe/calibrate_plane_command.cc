@@ -17,6 +17,7 @@
 #include "flatscan/io/rig_file.h"
 #include "flatscan/support_plane/plane_calibration.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/sha256.h"
 
 namespace flatscan {
 namespace {
@@ -57,10 +58,15 @@ class CalibratePlaneCommand : public Command {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     for (const std::string& w : cal.warnings) spdlog::warn("{}", w);
 
-    nlohmann::json report = cal.ToJson();
-    report.update({{"rig", rig_}, {"left", left_}, {"right", right_}, {"plane_file", output_}, {"time_ms", ms}});
+    // The plane written must pass the check every reader of it makes.
+    const std::string rig_sha256 = Sha256HexOfFile(rig_);
+    CheckPlaneAgainstRig({cal.plane, rig_sha256}, output_, rig, rig_, rig_sha256, false);
 
-    WritePlaneFile(output_, cal.plane);
+    nlohmann::json report = cal.ToJson();
+    report.update({{"rig", rig_}, {"rig_sha256", rig_sha256}, {"left", left_}, {"right", right_},
+                   {"plane_file", output_}, {"time_ms", ms}});
+
+    WritePlaneFile(output_, cal.plane, rig_sha256);
     if (!json_.empty()) WriteTextFileAtomically(json_, report.dump(2) + "\n");
 
     std::cout << fmt::format("plane: normal ({:.6f}, {:.6f}, {:.6f}), point ({:.4f}, {:.4f}, {:.4f}) mm\n",

@@ -47,7 +47,8 @@ class CalibrateRigCommand : public Command {
     Fills(sub_->add_option("--board", board_, "inner corners of the chessboard, columns x rows (OpenCV's count), e.g. 9x6")
               ->required(),
           "board");
-    Fills(sub_->add_option("--square", square_mm_, "side of a chessboard square in mm")->required(), "board.square_mm");
+    Fills(sub_->add_option("--square", square_mm_, "side of a chessboard square in mm")->required()->check(PositiveReal(1000)),
+          "board.square_mm");
     AddOutputOption(sub_, &output_, "rig file to write (OpenCV FileStorage YAML)")->required();
     sub_->add_option("--json", json_, "also write a JSON report (errors per pair, rejected pairs and why)");
     sub_->add_option("--model", model_,

@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/number_checks.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -22,7 +23,7 @@ int RunCli(int argc, char** argv) {
   app.fallthrough();  // --threads and --quiet may follow the subcommand
   int threads = 0;
   bool quiet = false;
-  app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "worker threads (0: all cores)")->check(IntegerIn(0, 256));
   app.add_flag("-q,--quiet", quiet, "only warnings and errors on stderr");
 
   std::vector<std::unique_ptr<Command>> commands = MakeCommands();

@@ -1,5 +1,8 @@
 // End-to-end tests of the flatscan binary: exit codes, messages, and outputs.
 #include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -43,6 +46,42 @@ TEST(Cli, UnknownSideFaceModelExitsTwoNamingTheChoices) {
   const auto r = RunFlatscan("inspect --rig r.yml --plane p.yml --left l.png --right r.png --thickness 0.2 --side-faces sideways");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--side-faces: sideways not in {local,centre,support}"), std::string::npos) << r.err;
+}
+
+// Every numeric option is checked when the command line is parsed, before any file is
+// read: NaN and infinity are refused, ranges print readably, text is "not a number".
+// Before these checks, --tolerance nan gave exit 1 ("fail"), --thickness nan blamed focus
+// and calibration, --blur -1 and --guard-band inf were accepted, and ranges printed
+// 1.8e308 in 300 digits.
+TEST(Cli, NumericOptionsAreCheckedAtParseTime) {
+  const std::string inspect = "inspect --rig r.yml --plane p.yml --left l.png --right r.png ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {inspect + "--thickness 0.2 --tolerance nan", "--tolerance: must be a finite number, got 'nan'"},
+      {inspect + "--thickness 0.2 --tolerance abc", "--tolerance: not a number: 'abc' (expected a number in (0, 10])"},
+      {inspect + "--thickness 0.2 --tolerance 0", "--tolerance: must be in (0, 10], got 0"},
+      {inspect + "--thickness 0.2 --tolerance 1e400", "--tolerance: must be in (0, 10], got 1e400"},
+      {inspect + "--thickness 0.2 --tolerance inf", "--tolerance: must be a finite number, got 'inf'"},
+      {inspect + "--thickness 0.2 --tolerance 0x10", "--tolerance: not a number: '0x10' (expected a number in (0, 10])"},
+      {inspect + "--thickness nan --tolerance 0.1", "--thickness: must be a finite number, got 'nan'"},
+      {inspect + "--thickness -0.1 --tolerance 0.1", "--thickness: must be in [0, 5], got -0.1"},
+      {inspect + "--thickness 0.2 --guard-band inf", "--guard-band: must be a finite number, got 'inf'"},
+      {inspect + "--thickness 0.2 --blur -1", "--blur: must be in [0, 5], got -1"},
+      {inspect + "--thickness 0.2 --blur 1e6", "--blur: must be in [0, 5], got 1e6"},
+      {"demo --tolerance -1", "--tolerance: must be in (0, 10], got -1"},
+      {"demo --parts 2.5", "--parts: must be a whole number in [1, 100000], got 2.5"},
+      {"simulate --parts 1000000000 -o x", "--parts: must be in [0, 100000], got 1000000000"},
+      {"simulate --shots 99999999999999999999 -o x", "--shots: must be in [1, 10000], got 99999999999999999999"},
+      {"evaluate --rotation-step 1e-9", "--rotation-step: must be in [0.1, 360], got 1e-9"},
+      {"evaluate --batch ten", "--batch: not a number: 'ten' (expected a whole number in [1, 1000000])"},
+      {"edges i.png --csv o.csv --blur nan", "--blur: must be a finite number, got 'nan'"},
+      {"calibrate-rig --left l --right r --board 9x6 --square -2.5 -o rig.yml", "--square: must be in (0, 1000], got -2.5"},
+      {"--threads -1 demo", "--threads: must be in [0, 256], got -1"},
+  };
+  for (const auto& [args, message] : cases) {
+    const auto r = RunFlatscan(args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(r.err, message + "\nRun with --help for more information.\n") << args;
+  }
 }
 
 TEST(Cli, SimulateIsDeterministicForASeed) {

@@ -28,7 +28,7 @@ class DemoCommand : public Command {
     sub_->footer("Example: flatscan demo -o flatscan-demo");
     AddOutputOption(sub_, &output_, "dataset folder (written, then used)")->default_val(output_);
     AddSeedOption(sub_, &seed_);
-    sub_->add_option("--parts", parts_, "number of parts")->default_val(parts_)->check(CLI::PositiveNumber);
+    sub_->add_option("--parts", parts_, "number of parts")->default_val(parts_)->check(IntegerIn(1, 100000));
     Fills(AddToleranceOption(sub_, &options_.tolerance_mm), "tolerance_mm");
     sub_->add_option("--preset", preset_, "simulated station: paper or compact")->default_val(preset_);
     AddNoThicknessCorrectionFlag(sub_, &no_correction_);

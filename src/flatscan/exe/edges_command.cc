@@ -10,6 +10,7 @@
 #include "flatscan/boundary/boundary_report.h"
 #include "flatscan/evaluation/edge_accuracy.h"
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/image_io.h"
 #include "flatscan/util/error.h"
@@ -42,14 +43,13 @@ class EdgesCommand : public Command {
     sub_->add_option("--overlay", overlay_, "also draw the points on the image into this PNG/JPEG file");
     sub_->add_option("--overlay-scale", overlay_scale_,
                      "overlay upscaling (default: 1024 / the image's larger side, in [1, 8])")
-        ->check(CLI::Range(1, 8));
+        ->check(IntegerIn(1, 8));
     sub_->add_option("--method", method_, "blur-model (ours), zernike (plain Ghosal-Mehrotra) or canny (pixel level)")
         ->check(CLI::IsMember({"blur-model", "zernike", "canny"}))
         ->default_val("blur-model");
     sub_->add_flag("--whole-image", whole_image_,
                    "search the whole image (textured scenes) instead of a band around the part");
-    sub_->add_option("--blur", blur_, "lens blur sigma in px if known (default 0: estimated from the image)")
-        ->check(CLI::NonNegativeNumber);
+    AddBlurOption(sub_, &blur_);
   }
 
   int Run() override {

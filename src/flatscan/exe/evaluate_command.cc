@@ -43,42 +43,42 @@ class EvaluateCommand : public Command {
     sub_->add_flag("--repeat", repeat_, "Table 1: one part shot --shots times");
     Fills(sub_->add_option("--shots", repeat_options_.shots, "shots of the repeat study")
               ->default_val(repeat_options_.shots)
-              ->check(CLI::Range(2, 100000)),
+              ->check(IntegerIn(2, 100000)),
           "repeat.shots");
     Fills(sub_->add_option("--true-flatness", repeat_options_.flatness_mm, "true flatness of the repeat study's part, mm")
               ->default_val(repeat_options_.flatness_mm)
-              ->check(CLI::PositiveNumber),
+              ->check(PositiveReal(5)),
           "repeat.flatness_mm");
-    Fills(sub_->add_option("--batch", batch_options_.parts, "Table 2: number of different parts")->check(CLI::Range(1, 1000000)),
+    Fills(sub_->add_option("--batch", batch_options_.parts, "Table 2: number of different parts")->check(IntegerIn(1, 1000000)),
           "batch.parts");
     Fills(AddToleranceOption(sub_, &tolerance_), "tolerance_mm");
     Fills(sub_->add_option("--beyond", batch_options_.lot.beyond_fraction, "fraction of the lot beyond the tolerance")
               ->default_val(batch_options_.lot.beyond_fraction)
-              ->check(CLI::Range(0.01, 0.99)),
+              ->check(RealIn(0.01, 0.99)),
           "lot.beyond_fraction");
     Fills(sub_->add_option("--lot-spread", batch_options_.lot.log_spread,
                            "standard deviation of ln(flatness) in the lot (smaller: more parts near the tolerance)")
               ->default_val(batch_options_.lot.log_spread)
-              ->check(CLI::Range(0.05, 3.0)),
+              ->check(RealIn(0.05, 3)),
           "lot.log_spread");
     Fills(sub_->add_option("--rotation-step", rotation_options_.step_deg,
                            "coverage against rotation: parts turned 0 to --rotation-max degrees to the camera baseline "
                            "in steps of this many degrees")
-              ->check(CLI::PositiveNumber),
+              ->check(RealIn(0.1, 360)),
           "rotation.step_deg");
     Fills(sub_->add_option("--rotation-max", rotation_options_.max_deg, "largest rotation of the rotation study, degrees")
               ->default_val(rotation_options_.max_deg)
-              ->check(CLI::Range(0.0, 360.0)),
+              ->check(RealIn(0, 360)),
           "rotation.max_deg");
     Fills(sub_->add_option("--rotation-parts", rotation_options_.parts, "parts of the rotation study (the same at every angle)")
               ->default_val(rotation_options_.parts)
-              ->check(CLI::Range(1, 100000)),
+              ->check(IntegerIn(1, 100000)),
           "rotation.parts");
     AddCalibrationPosesOption(sub_, &calib_poses_);
     sub_->add_option("--save-worst", save_worst_,
                      "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
-        ->default_val(0)->check(CLI::NonNegativeNumber);
+        ->default_val(0)->check(IntegerIn(0, 1000));
     AddNoThicknessCorrectionFlag(sub_, &no_correction_);
     AddSideFacesOption(sub_, &side_faces_);
     sub_->add_flag("--true-calibration", true_calibration_,

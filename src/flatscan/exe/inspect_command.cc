@@ -35,21 +35,24 @@ class InspectCommand : public Command {
     Fills(sub_->add_option("--thickness", params_.thickness_mm,
                            "height of the part's side face, mm: the sheet thickness (plus the wall height for folded walls)")
               ->required()
-              ->check(CLI::NonNegativeNumber),
+              ->check(RealIn(0, 5)),
           "thickness_mm");
     Fills(AddToleranceOption(sub_, &spec_.tolerance_mm)->required(), "tolerance_mm");
     Fills(sub_->add_option("--guard-band", spec_.guard_band_mm,
                            "measurement uncertainty U, mm (e.g. from `flatscan evaluate`): a flatness within U of the "
                            "tolerance is reported as marginal (the verdict and exit code stay pass/fail)")
               ->default_val(spec_.guard_band_mm)
-              ->check(CLI::NonNegativeNumber),
+              ->check(RealIn(0, 1)),
           "guard_band_mm");
     sub_->add_option("--json", json_, "JSON record (batch: one JSON line per part, then a summary line)");
     sub_->add_option("--ply", ply_, "PLY of the valid 3D boundary points with their heights (single pair)");
     sub_->add_option("--overlay", overlay_, "folder for left/right overlay PNGs of the points coloured by height");
+    sub_->add_flag("--allow-foreign-plane", allow_foreign_plane_,
+                   "measure with a plane file calibrated with another rig file (its rig_sha256 differs): a warning, "
+                   "and the JSON says so; the heights may be off by micrometres");
     AddNoThicknessCorrectionFlag(sub_, &no_correction_);
     AddSideFacesOption(sub_, &params_.side_faces);
-    sub_->add_option("--blur", params_.boundary.blur_sigma_px, "lens blur sigma in px if known (default: estimated)");
+    AddBlurOption(sub_, &params_.boundary.blur_sigma_px);
   }
 
   int Run() override {
@@ -58,8 +61,16 @@ class InspectCommand : public Command {
     CheckFlatnessSpec(spec_);
     params_.thickness_correction = !no_correction_;
     const StereoRig rig = ReadRigFile(rig_);
-    const SupportPlane plane = ReadPlaneFile(plane_);
+    const PlaneFile plane_file = ReadPlaneFile(plane_);
     InspectionInputs base{"", rig_, plane_, "", "", Sha256HexOfFile(rig_), Sha256HexOfFile(plane_)};
+    base.plane_rig = CheckPlaneAgainstRig(plane_file, plane_, rig, rig_, base.rig_sha256, allow_foreign_plane_);
+    if (base.plane_rig == PlaneRigMatch::kForeign)
+      spdlog::warn("{}: calibrated with another rig file than '{}' (--allow-foreign-plane)", plane_, rig_);
+    if (base.plane_rig == PlaneRigMatch::kUnknown)
+      spdlog::warn("{}: the plane file does not say which rig it was calibrated with (no rig_sha256: written "
+                   "before that key existed); recalibrate it with `flatscan calibrate-plane` to have it checked",
+                   plane_);
+    const SupportPlane& plane = plane_file.plane;
     if (pairs_.empty()) return RunOne(rig, plane, base);
     return RunBatch(rig, plane, base);
   }
@@ -142,7 +153,7 @@ class InspectCommand : public Command {
   }
 
   std::string rig_, plane_, left_, right_, pairs_, json_, ply_, overlay_;
-  bool no_correction_ = false;
+  bool no_correction_ = false, allow_foreign_plane_ = false;
   InspectionParams params_;
   FlatnessSpec spec_;
 };

@@ -2,10 +2,12 @@
 // Options that several commands share: one name, one default and one help text each.
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
+#include "flatscan/exe/number_checks.h"
 #include "flatscan/flatness/verdict.h"
 #include "flatscan/geometry/side_faces.h"
 #include "flatscan/simulation/scene_config.h"
@@ -20,7 +22,9 @@ inline CLI::Option* AddOutputOption(CLI::App* sub, std::string* path, const std:
 
 // --seed: every random choice derives from it.
 inline CLI::Option* AddSeedOption(CLI::App* sub, uint64_t* seed) {
-  return sub->add_option("--seed", *seed, "random seed (the same seed gives the same result)")->default_val(*seed);
+  return sub->add_option("--seed", *seed, "random seed (the same seed gives the same result)")
+      ->default_val(*seed)
+      ->check(IntegerIn(0, std::numeric_limits<long long>::max()));
 }
 
 // --tolerance: the flatness tolerance (flatness/verdict.h owns its default).
@@ -28,7 +32,7 @@ inline CLI::Option* AddToleranceOption(CLI::App* sub, double* tolerance_mm) {
   *tolerance_mm = FlatnessSpec::kDefaultToleranceMm;
   return sub->add_option("--tolerance", *tolerance_mm, "flatness tolerance, mm: a part fails above it")
       ->default_val(*tolerance_mm)
-      ->check(CLI::PositiveNumber);
+      ->check(PositiveReal(10));
 }
 
 // --no-thickness-correction: triangulate as if the sheet had no thickness.
@@ -50,6 +54,14 @@ inline CLI::Option* AddSideFacesOption(CLI::App* sub, SideFaceModel* model) {
       ->default_str(SideFaceModelName(*model));
 }
 
+// --blur: the lens blur if known. Sharp optics give 0.5-1.5 px; beyond 5 px the cameras are
+// out of focus, and the band the edges are searched in grows with the blur.
+inline CLI::Option* AddBlurOption(CLI::App* sub, double* blur_sigma_px) {
+  return sub->add_option("--blur", *blur_sigma_px, "lens blur sigma in px if known (0: estimated from the image)")
+      ->default_val(*blur_sigma_px)
+      ->check(RealIn(0, 5));
+}
+
 // --preset / --scene: the simulated station.
 inline void AddSceneOptions(CLI::App* sub, std::string* preset, std::string* scene_file) {
   auto* p = sub->add_option("--preset", *preset, "built-in scene: paper (docs/design.md section 4) or compact")
@@ -64,7 +76,7 @@ inline CLI::Option* AddCalibrationPosesOption(CLI::App* sub, int* poses) {
   *poses = kDefaultCalibrationPoses;
   return sub->add_option("--calib-poses", *poses, "chessboard pairs for the rig calibration")
       ->default_val(*poses)
-      ->check(CLI::Range(3, 200));
+      ->check(IntegerIn(3, 200));
 }
 
 // Fails early (before minutes of work) when the folder an output goes into does not exist.

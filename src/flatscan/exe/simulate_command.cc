@@ -22,11 +22,12 @@ class SimulateCommand : public Command {
     AddOutputOption(sub_, &output_, "dataset folder to write (replaced if it exists)");
     sub_->add_flag("--print-scene", print_scene_, "print the resolved scene as JSON (a starting point for a scene file) and exit");
     AddSeedOption(sub_, &seed_);
-    sub_->add_option("--parts", parts_, "number of parts (overrides the scene)")->check(CLI::NonNegativeNumber);
+    // The same bounds as the scene file's keys (simulation/scene_config.cc).
+    sub_->add_option("--parts", parts_, "number of parts (overrides the scene)")->check(IntegerIn(0, 100000));
     sub_->add_option("--shots", shots_, "repeated shots of each part: fresh noise and placement jitter")
-        ->check(CLI::PositiveNumber);
+        ->check(IntegerIn(1, 10000));
     sub_->add_option("--calib-poses", calib_poses_, "number of chessboard pairs (overrides the scene)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(IntegerIn(0, 200));
     sub_->add_flag("--no-calibration", no_calibration_, "skip the calibration pairs");
     sub_->add_flag("--no-markers", no_markers_, "skip the marker pair");
   }

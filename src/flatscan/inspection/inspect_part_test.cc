@@ -216,50 +216,5 @@ TEST(InspectPart, UnmeasurablePairsSayWhy) {
   EXPECT_EQ(inspect(shifted, rp.right), "L.png: the part touches the image border: place it fully inside both cameras' views");
 }
 
-TEST(InspectCommand, ExitCodesJsonAndBatch) {
-  testing::ScratchDir dir("inspect-cli");
-  const std::string data = (dir.path() / "data").string();
-  auto sim = testing::RunFlatscan("simulate --preset paper --parts 2 --no-calibration --no-markers --seed 3 -q -o " + data);
-  ASSERT_EQ(sim.exit_code, 0) << sim.err;
-  const auto truth = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "data/truth.json"));
-  const double t = truth["parts"][0]["thickness_mm"].get<double>();
-  const double flat = truth["parts"][0]["flatness_mm"].get<double>();
-  const std::string common = fmt::format("inspect --rig {0}/rig.yml --plane {0}/plane_true.yml --thickness {1} ", data, t);
-  const std::string pair0 = fmt::format("--left {0}/parts/part_000_left.png --right {0}/parts/part_000_right.png ", data);
-  // Pass and fail around the measured flatness.
-  auto r = testing::RunFlatscan(common + pair0 + fmt::format("--tolerance {} --json {}/out.json", flat + 0.02, data));
-  EXPECT_EQ(r.exit_code, 0) << r.err;
-  const auto j = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "data/out.json"));
-  EXPECT_EQ(j["verdict"], "pass");
-  EXPECT_NEAR(j["flatness_mm"].get<double>(), flat, 0.008);
-  for (const char* key : {"lsq_pv_mm", "minzone_mm", "tolerance_mm", "thickness_mm", "coverage", "timing_ms", "points"})
-    EXPECT_TRUE(j.contains(key)) << key;
-  EXPECT_EQ(j["inputs"]["rig_sha256"].get<std::string>().size(), 64u);
-  r = testing::RunFlatscan(common + pair0 + fmt::format("--tolerance {} --ply {}/out.ply", flat - 0.02, data));
-  EXPECT_EQ(r.exit_code, 1) << r.err;
-  EXPECT_EQ(testing::ReadFileBytes(dir.path() / "data/out.ply").rfind("ply\nformat ascii 1.0\n", 0), 0u);
-  // Bad input: exit 2 and no result file.
-  r = testing::RunFlatscan(common + fmt::format("--left {0}/missing.png --right {0}/parts/part_000_right.png --tolerance 0.1 --json {0}/bad.json", data));
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find(data + "/missing.png: no such file"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(dir.path() / "data/bad.json"));
-  // Batch: goes on past a pair that cannot be measured, no verdict for it.
-  std::ofstream(dir.path() / "data/batch.csv") << "id,left,right\n"
-                                               << "a,parts/part_000_left.png,parts/part_000_right.png\n"
-                                               << "broken,parts/part_000_left.png,parts/nothing.png\n"
-                                               << "b,parts/part_001_left.png,parts/part_001_right.png\n";
-  r = testing::RunFlatscan(common + fmt::format("--pairs {0}/batch.csv --tolerance 1.0 --json {0}/batch.jsonl", data));
-  EXPECT_EQ(r.exit_code, 2) << r.err;
-  std::stringstream lines(testing::ReadFileBytes(dir.path() / "data/batch.jsonl"));
-  std::vector<nlohmann::json> records;
-  for (std::string line; std::getline(lines, line);) records.push_back(nlohmann::json::parse(line));
-  ASSERT_EQ(records.size(), 4u);
-  EXPECT_EQ(records[0]["verdict"], "pass");
-  EXPECT_FALSE(records[1]["measured"].get<bool>());
-  EXPECT_TRUE(records[1]["verdict"].is_null());
-  EXPECT_EQ(records[2]["verdict"], "pass");
-  EXPECT_EQ(records[3]["not_measured"], 1);
-}
-
 }  // namespace
 }  // namespace flatscan

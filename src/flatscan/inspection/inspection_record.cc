@@ -124,7 +124,8 @@ json RecordToJson(const InspectionRecord& r) {
   timing["total"] = r.TotalMs();
   j["timing_ms"] = timing;
   j["inputs"] = {{"rig", r.inputs.rig_file},     {"rig_sha256", r.inputs.rig_sha256}, {"plane", r.inputs.plane_file},
-                 {"plane_sha256", r.inputs.plane_sha256}, {"left", r.inputs.left_file}, {"right", r.inputs.right_file}};
+                 {"plane_sha256", r.inputs.plane_sha256}, {"plane_rig", PlaneRigMatchName(r.inputs.plane_rig)},
+                 {"left", r.inputs.left_file}, {"right", r.inputs.right_file}};
   j["warnings"] = r.warnings;
   return j;
 }
@@ -177,6 +178,12 @@ InspectionRecord RecordFromJson(const json& j) {
   const json& inputs = in.At("inputs", "an object");
   auto text = [&](const char* key) { return in.String(inputs.value(key, json()), key); };
   r.inputs = {r.id, text("rig"), text("plane"), text("left"), text("right"), text("rig_sha256"), text("plane_sha256")};
+  const std::string plane_rig = text("plane_rig");
+  const auto match = ParsePlaneRigMatch(plane_rig);
+  if (!match)
+    ThrowInputError("inspection record: key 'inputs.plane_rig' must be \"matches\", \"foreign\" or \"unknown\", found \"{}\"",
+                    plane_rig);
+  r.inputs.plane_rig = *match;
   for (const json& w : in.At("warnings", "an array of strings")) r.warnings.push_back(in.String(w, "warnings"));
   return r;
 }

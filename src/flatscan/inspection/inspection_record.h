@@ -19,7 +19,10 @@
 //                      side_tilt_rad (at the footprint centre), max_face_tilt_rad (over the rim)}
 //   blur_sigma_px      [left, right]
 //   timing_ms          {stage: ms, ..., total}
-//   inputs             {rig, rig_sha256, plane, plane_sha256, left, right}
+//   inputs             {rig, rig_sha256, plane, plane_sha256, plane_rig, left, right}; plane_rig:
+//                      "matches" (the plane file was calibrated with this rig file), "foreign"
+//                      (with another one, allowed by --allow-foreign-plane) or "unknown" (the
+//                      plane file does not say)
 //   warnings           [text, ...]
 // Names: snake_case with the unit as a suffix (docs/conventions.md, "JSON").
 #include <string>
@@ -30,6 +33,7 @@
 
 #include "flatscan/flatness/verdict.h"
 #include "flatscan/inspection/inspect_part.h"
+#include "flatscan/io/rig_file.h"
 
 namespace flatscan {
 
@@ -37,6 +41,7 @@ struct InspectionInputs {
   std::string id;  // part id (batch, source) or empty
   std::string rig_file, plane_file, left_file, right_file;
   std::string rig_sha256, plane_sha256;
+  PlaneRigMatch plane_rig = PlaneRigMatch::kUnknown;  // the plane file's rig_sha256 against rig_sha256
 };
 
 struct InspectionRecord {

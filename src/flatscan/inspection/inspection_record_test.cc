@@ -29,8 +29,9 @@ InspectionResult SomeResult(double flatness_mm, double coverage) {
   return r;
 }
 
-const InspectionInputs kInputs{"part_007", "rig.yml", "plane.yml", "l.png", "r.png", std::string(64, 'a'),
-                               std::string(64, 'b')};
+const InspectionInputs kInputs{"part_007",          "rig.yml",           "plane.yml",
+                               "l.png",             "r.png",             std::string(64, 'a'),
+                               std::string(64, 'b'), PlaneRigMatch::kForeign};
 
 std::set<std::string> Keys(const nlohmann::json& j) {
   std::set<std::string> keys;
@@ -63,6 +64,8 @@ TEST(InspectionRecord, MeasuredRecordHasEveryKeyAndRoundTrips) {
   EXPECT_EQ(RecordToJson(back), j);
   EXPECT_EQ(back.values.flatness_mm, 0.1031);
   EXPECT_EQ(back.inputs.plane_sha256, std::string(64, 'b'));
+  EXPECT_EQ(j["inputs"]["plane_rig"], "foreign");
+  EXPECT_EQ(back.inputs.plane_rig, PlaneRigMatch::kForeign);
   EXPECT_EQ(back.spec.guard_band_mm, 0.004);
   EXPECT_EQ(j["rim_model"]["side_faces"], "centre");
   EXPECT_EQ(back.side_faces, SideFaceModel::kCentreNormal);
@@ -98,6 +101,10 @@ TEST(InspectionRecord, ReaderNamesTheKey) {
   EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(j); }),
             "inspection record: missing key 'tolerance_mm' (expected a number)");
   j = RecordToJson(NotMeasuredRecord("why", {}, {}, kInputs));
+  j["inputs"]["plane_rig"] = "mine";
+  EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(j); }),
+            "inspection record: key 'inputs.plane_rig' must be \"matches\", \"foreign\" or \"unknown\", found \"mine\"");
+  j["inputs"]["plane_rig"] = "unknown";
   j["verdict"] = "pass";
   EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(j); }),
             "inspection record: key 'verdict' must be null when measured is false");

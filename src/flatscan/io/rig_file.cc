@@ -14,6 +14,7 @@
 #include "flatscan/calibration/rectification.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/sha256.h"
 
 namespace flatscan {
 namespace fs = std::filesystem;
@@ -340,9 +341,10 @@ StereoRig ImportOpenCvStereoCalib(const fs::path& intrinsics, const fs::path& ex
   return rig;
 }
 
-SupportPlane ReadPlaneFile(const fs::path& path) {
+PlaneFile ReadPlaneFile(const fs::path& path) {
   const KeyReader in(path, "plane file");
-  SupportPlane plane;
+  PlaneFile file;
+  SupportPlane& plane = file.plane;
   plane.normal = in.ReadVector3(
       "normal", "3x1 unit normal of the support plane, camera-1 frame, toward the cameras");
   const double norm = plane.normal.norm();
@@ -368,14 +370,22 @@ SupportPlane ReadPlaneFile(const fs::path& path) {
                                markers.at<double>(i, 2));
     plane.residuals_mm.push_back(residuals.at<double>(i));
   }
-  return plane;
+  if (in.Has("rig_sha256")) {
+    const cv::FileNode node = in.Get("rig_sha256");
+    file.rig_sha256 = node.isString() ? static_cast<std::string>(node) : "";
+    if (!IsSha256Hex(file.rig_sha256))
+      in.Fail("rig_sha256", "must be 64 lowercase hexadecimal digits (the SHA-256 of the rig file), found {}",
+              node.isString() ? "'" + file.rig_sha256 + "'" : DescribeNode(node));
+  }
+  return file;
 }
 
-void WritePlaneFile(const fs::path& path, const SupportPlane& plane) {
+void WritePlaneFile(const fs::path& path, const SupportPlane& plane, const std::string& rig_sha256) {
   // A plane that ReadPlaneFile would reject is a programming error here.
   FLATSCAN_CHECK(plane.markers.size() >= 3);
   FLATSCAN_CHECK(plane.residuals_mm.size() == plane.markers.size());
   FLATSCAN_CHECK(std::abs(plane.normal.norm() - 1) <= kUnitNormalTolerance);
+  FLATSCAN_CHECK(rig_sha256.empty() || IsSha256Hex(rig_sha256));
 
   const int n = static_cast<int>(plane.markers.size());
   cv::Mat markers(n, 3, CV_64F), residuals(n, 1, CV_64F);
@@ -393,8 +403,50 @@ void WritePlaneFile(const fs::path& path, const SupportPlane& plane) {
     out << "markers" << markers;
     out << "residuals" << residuals;
     out << "residual_rms_mm" << std::sqrt(sum_squares / n);
+    if (!rig_sha256.empty()) out << "rig_sha256" << rig_sha256;
     out.release();
   });
+}
+
+const char* PlaneRigMatchName(PlaneRigMatch match) {
+  switch (match) {
+    case PlaneRigMatch::kMatches: return "matches";
+    case PlaneRigMatch::kForeign: return "foreign";
+    case PlaneRigMatch::kUnknown: return "unknown";
+  }
+  return "unknown";
+}
+
+std::optional<PlaneRigMatch> ParsePlaneRigMatch(const std::string& name) {
+  for (PlaneRigMatch m : {PlaneRigMatch::kMatches, PlaneRigMatch::kForeign, PlaneRigMatch::kUnknown})
+    if (name == PlaneRigMatchName(m)) return m;
+  return std::nullopt;
+}
+
+PlaneRigMatch CheckPlaneAgainstRig(const PlaneFile& plane_file, const fs::path& plane_path, const StereoRig& rig,
+                                   const fs::path& rig_path, const std::string& rig_sha256, bool allow_foreign) {
+  // Heights are normal . (p - point): with the normal reversed every height changes
+  // sign, the rim's highest point becomes its lowest and a warped part can pass.
+  const SupportPlane& plane = plane_file.plane;
+  const Eigen::Vector3d centres[2] = {Eigen::Vector3d::Zero(), rig.cam2_from_cam1.Inverse().OriginOfSource()};
+  for (int k = 0; k < 2; ++k) {
+    const double height_mm = plane.Height(centres[k]);
+    if (!(height_mm > 0))
+      ThrowInputError(
+          "{}: key 'normal' must point toward the cameras of '{}', but camera {} lies {:.1f} mm {} the plane: "
+          "the normal is reversed or the plane belongs to another rig (recalibrate it with `flatscan "
+          "calibrate-plane`)",
+          plane_path.string(), rig_path.string(), k + 1, std::abs(height_mm), height_mm < 0 ? "behind" : "on");
+  }
+  if (plane_file.rig_sha256.empty()) return PlaneRigMatch::kUnknown;
+  if (plane_file.rig_sha256 == rig_sha256) return PlaneRigMatch::kMatches;
+  if (!allow_foreign)
+    ThrowInputError(
+        "{}: calibrated with another rig file (rig_sha256 {}) than '{}' (SHA-256 {}): recalibrate the plane with "
+        "this rig, or give --allow-foreign-plane to measure anyway",
+        plane_path.string(), plane_file.rig_sha256.substr(0, 12) + "...", rig_path.string(),
+        rig_sha256.substr(0, 12) + "...");
+  return PlaneRigMatch::kForeign;
 }
 
 }  // namespace flatscan

@@ -7,10 +7,13 @@
 // names OpenCV's stereo_calib sample writes.
 //
 // Plane file keys: normal (3x1 unit, camera-1 frame, toward the cameras), point (3x1),
-// markers (Nx3 marker centres), residuals (Nx1, mm).
+// markers (Nx3 marker centres), residuals (Nx1, mm), rig_sha256 (SHA-256 of the bytes of
+// the rig file the plane was calibrated with; absent in files written before it existed).
 //
 // Readers throw InputError naming the file, the key and what was expected.
 #include <filesystem>
+#include <optional>
+#include <string>
 
 #include "flatscan/calibration/stereo_rig.h"
 #include "flatscan/support_plane/support_plane.h"
@@ -28,7 +31,31 @@ StereoRig ImportOpenCvStereoCalib(const std::filesystem::path& intrinsics,
                                   const std::filesystem::path& extrinsics, int image_width,
                                   int image_height);
 
-SupportPlane ReadPlaneFile(const std::filesystem::path& path);
-void WritePlaneFile(const std::filesystem::path& path, const SupportPlane& plane);
+// A plane file's contents: the plane and the rig it was calibrated with.
+struct PlaneFile {
+  SupportPlane plane;
+  std::string rig_sha256;  // 64 lowercase hex digits; empty when the file does not say
+};
+
+PlaneFile ReadPlaneFile(const std::filesystem::path& path);
+// `rig_sha256`: Sha256HexOfFile of the rig file used by the calibration (may be empty
+// only for planes that belong to no rig file, e.g. in tests). Atomic.
+void WritePlaneFile(const std::filesystem::path& path, const SupportPlane& plane,
+                    const std::string& rig_sha256);
+
+// Whether a plane file belongs to the rig it is used with (docs/conventions.md).
+enum class PlaneRigMatch { kMatches, kForeign, kUnknown };
+const char* PlaneRigMatchName(PlaneRigMatch match);  // "matches", "foreign", "unknown"
+std::optional<PlaneRigMatch> ParsePlaneRigMatch(const std::string& name);
+
+// Checks a plane file against the rig file it is about to be used with: the plane's
+// normal must point toward both camera centres (else heights change sign and a warped
+// part can pass), and its rig_sha256 must be `rig_sha256` (the hash of the rig file's
+// bytes). Throws InputError naming both files on a reversed normal, and on a foreign rig
+// unless `allow_foreign`; returns kForeign (allowed) or kUnknown (no rig_sha256 in the
+// plane file) for the caller to warn about.
+PlaneRigMatch CheckPlaneAgainstRig(const PlaneFile& plane_file, const std::filesystem::path& plane_path,
+                                   const StereoRig& rig, const std::filesystem::path& rig_path,
+                                   const std::string& rig_sha256, bool allow_foreign);
 
 }  // namespace flatscan

@@ -495,7 +495,7 @@ TEST_F(RigFile, ImportOpenCvStereoCalibErrorsNameTheFile) {
                         intrinsics.string()));
 }
 
-class PlaneFile : public TempDirTest {
+class PlaneFileTest : public TempDirTest {
  protected:
   void SetUp() override {
     TempDirTest::SetUp();
@@ -527,13 +527,16 @@ class PlaneFile : public TempDirTest {
   }
   std::string Expected(const std::string& rest) const { return path_.string() + ": " + rest; }
 
+  static constexpr const char* kRigSha256 = "0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
   fs::path path_;
   SupportPlane plane_;
 };
 
-TEST_F(PlaneFile, RoundTrip) {
-  WritePlaneFile(path_, plane_);
-  const SupportPlane read = ReadPlaneFile(path_);
+TEST_F(PlaneFileTest, RoundTrip) {
+  WritePlaneFile(path_, plane_, kRigSha256);
+  const flatscan::PlaneFile file = ReadPlaneFile(path_);
+  EXPECT_EQ(file.rig_sha256, kRigSha256);
+  const SupportPlane& read = file.plane;
   EXPECT_LE((read.normal - plane_.normal).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LE((read.point - plane_.point).cwiseAbs().maxCoeff(), 1e-12);
   ASSERT_EQ(read.markers.size(), 4u);
@@ -548,18 +551,18 @@ TEST_F(PlaneFile, RoundTrip) {
   EXPECT_NEAR(static_cast<double>(in["residual_rms_mm"]), std::sqrt(rms), 1e-15);
 }
 
-TEST_F(PlaneFile, MissingFile) {
+TEST_F(PlaneFileTest, MissingFile) {
   EXPECT_EQ(InputErrorOf([&] { ReadPlaneFile(path_); }),
             Expected("cannot open plane file (expected an OpenCV FileStorage YAML/XML file)"));
 }
 
-TEST_F(PlaneFile, NonUnitNormal) {
+TEST_F(PlaneFileTest, NonUnitNormal) {
   const cv::Mat short_normal = (cv::Mat_<double>(3, 1) << 0, 0, -0.5);
   EXPECT_EQ(ReadError(PlaneKeys().Set("normal", short_normal)),
             Expected("key 'normal' must be a unit vector (norm 1 within 1e-06), found norm 0.5"));
 }
 
-TEST_F(PlaneFile, MissingKey) {
+TEST_F(PlaneFileTest, MissingKey) {
   EXPECT_EQ(ReadError(PlaneKeys().Remove("residuals")),
             Expected("missing key 'residuals' (expected Nx1 marker distances to the plane, mm)"));
   EXPECT_EQ(ReadError(PlaneKeys().Remove("point")),
@@ -567,7 +570,7 @@ TEST_F(PlaneFile, MissingKey) {
                      "mm)"));
 }
 
-TEST_F(PlaneFile, WrongShape) {
+TEST_F(PlaneFileTest, WrongShape) {
   EXPECT_EQ(ReadError(PlaneKeys().Set("markers", cv::Mat(cv::Mat::ones(2, 3, CV_64F)))),
             Expected("key 'markers' must be an Nx3 matrix with N >= 3, found 2x3"));
   EXPECT_EQ(ReadError(PlaneKeys().Set("markers", cv::Mat(cv::Mat::ones(4, 2, CV_64F)))),
@@ -578,18 +581,68 @@ TEST_F(PlaneFile, WrongShape) {
             Expected("key 'point' must be a 3x1 vector, found 4x1"));
 }
 
-TEST_F(PlaneFile, NonFinite) {
+TEST_F(PlaneFileTest, NonFinite) {
   cv::Mat markers(4, 3, CV_64F, cv::Scalar(1.0));
   markers.at<double>(2, 1) = INFINITY;
   EXPECT_EQ(ReadError(PlaneKeys().Set("markers", markers)),
             Expected("key 'markers' must have finite elements, found NaN or infinity"));
 }
 
-TEST_F(PlaneFile, WriteToMissingFolderIsInputErrorNamingPath) {
+TEST_F(PlaneFileTest, WriteToMissingFolderIsInputErrorNamingPath) {
   const fs::path path = dir_ / "no" / "plane.yml";
-  EXPECT_EQ(InputErrorOf([&] { WritePlaneFile(path, plane_); }),
+  EXPECT_EQ(InputErrorOf([&] { WritePlaneFile(path, plane_, kRigSha256); }),
             fmt::format("cannot write '{}': folder '{}' does not exist", path.string(),
                         (dir_ / "no").string()));
+}
+
+TEST_F(PlaneFileTest, RigSha256IsOptionalButMustBeAHash) {
+  WritePlaneFile(path_, plane_, "");
+  EXPECT_EQ(ReadPlaneFile(path_).rig_sha256, "");  // written before the key existed
+  EXPECT_EQ(ReadError(PlaneKeys().Set("rig_sha256", std::string("abc"))),
+            Expected("key 'rig_sha256' must be 64 lowercase hexadecimal digits (the SHA-256 of the rig file), "
+                     "found 'abc'"));
+  EXPECT_EQ(ReadError(PlaneKeys().Set("rig_sha256", 7)),
+            Expected("key 'rig_sha256' must be 64 lowercase hexadecimal digits (the SHA-256 of the rig file), "
+                     "found a number"));
+}
+
+// Heights are normal . (p - point): a reversed normal turns the rim's highest point into
+// its lowest, and a warped part can pass. The check also catches a plane of another rig
+// that lies behind this rig's cameras.
+TEST_F(PlaneFileTest, NormalMustPointTowardBothCameras) {
+  const StereoRig rig = ReferenceRig();
+  const fs::path rig_path = dir_ / "rig.yml";
+  EXPECT_EQ(CheckPlaneAgainstRig({plane_, kRigSha256}, path_, rig, rig_path, kRigSha256, false),
+            PlaneRigMatch::kMatches);
+  flatscan::PlaneFile reversed{plane_, kRigSha256};
+  reversed.plane.normal = -plane_.normal;
+  EXPECT_EQ(InputErrorOf([&] { CheckPlaneAgainstRig(reversed, path_, rig, rig_path, kRigSha256, true); }),
+            Expected(fmt::format("key 'normal' must point toward the cameras of '{}', but camera 1 lies "
+                                 "{:.1f} mm behind the plane: the normal is reversed or the plane belongs to "
+                                 "another rig (recalibrate it with `flatscan calibrate-plane`)",
+                                 rig_path.string(), -reversed.plane.Height(Eigen::Vector3d::Zero()))));
+  // A plane between the two cameras: camera 2 is behind it.
+  flatscan::PlaneFile between{plane_, kRigSha256};
+  between.plane.normal = Eigen::Vector3d(-1, 0, 0);
+  between.plane.point = Eigen::Vector3d(30, 0, 200);
+  EXPECT_EQ(InputErrorOf([&] { CheckPlaneAgainstRig(between, path_, rig, rig_path, kRigSha256, true); }),
+            Expected(fmt::format("key 'normal' must point toward the cameras of '{}', but camera 2 lies 30.0 mm "
+                                 "behind the plane: the normal is reversed or the plane belongs to another rig "
+                                 "(recalibrate it with `flatscan calibrate-plane`)",
+                                 rig_path.string())));
+}
+
+TEST_F(PlaneFileTest, PlaneOfAnotherRigIsRefusedUnlessAllowed) {
+  const StereoRig rig = ReferenceRig();
+  const fs::path rig_path = dir_ / "rig.yml";
+  const std::string other(64, 'f');
+  EXPECT_EQ(InputErrorOf([&] { CheckPlaneAgainstRig({plane_, kRigSha256}, path_, rig, rig_path, other, false); }),
+            Expected(fmt::format("calibrated with another rig file (rig_sha256 0123456789ab...) than '{}' (SHA-256 "
+                                 "ffffffffffff...): recalibrate the plane with this rig, or give "
+                                 "--allow-foreign-plane to measure anyway",
+                                 rig_path.string())));
+  EXPECT_EQ(CheckPlaneAgainstRig({plane_, kRigSha256}, path_, rig, rig_path, other, true), PlaneRigMatch::kForeign);
+  EXPECT_EQ(CheckPlaneAgainstRig({plane_, ""}, path_, rig, rig_path, other, false), PlaneRigMatch::kUnknown);
 }
 
 }  // namespace

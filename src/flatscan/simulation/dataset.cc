@@ -14,6 +14,7 @@
 #include "flatscan/simulation/image_formation.h"
 #include "flatscan/simulation/truth_file.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/sha256.h"
 
 namespace flatscan {
 namespace {
@@ -228,7 +229,7 @@ SimulateSummary SimulateDataset(const SimulateOptions& options, const std::funct
 
   WriteRigFile(root / "rig.yml", st.rig);
   add("rig.yml");
-  WritePlaneFile(root / "plane_true.yml", st.plane);
+  WritePlaneFile(root / "plane_true.yml", st.plane, Sha256HexOfFile(root / "rig.yml"));
   add("plane_true.yml");
   nlohmann::json scene_json = SceneToJson(st.scene);
   WriteTextFileAtomically(root / "scene.json", scene_json.dump(2) + "\n");

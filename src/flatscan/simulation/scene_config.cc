@@ -368,7 +368,7 @@ SceneConfig LoadSceneFile(const std::filesystem::path& path) {
   if (ext == ".json") {
     try {
       doc = json::parse(text);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers like 1e999
       ThrowInputError("{}: not valid JSON ({})", source, e.what());
     }
   } else {

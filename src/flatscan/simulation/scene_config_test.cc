@@ -94,6 +94,8 @@ TEST(SceneConfig, BadValuesNameTheFileAndField) {
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), "unknown preset 'nope' (expected one of: paper, compact)");
   WriteText(json, "{not json");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": not valid JSON", 0), 0u);
+  WriteText(json, R"({"camera": {"noise_sigma_grey": 1e999}})");  // was an "internal error"
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": not valid JSON (", 0), 0u);
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(dir.path() / "missing.yml"); }),
             (dir.path() / "missing.yml").string() + ": cannot open scene file (expected a readable YAML or JSON file)");
 }

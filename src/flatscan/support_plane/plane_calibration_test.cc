@@ -18,6 +18,7 @@
 #include "flatscan/simulation/dataset.h"
 #include "flatscan/simulation/station.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/sha256.h"
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
@@ -281,13 +282,16 @@ TEST(PlaneCalibration, CalibratePlaneCommand) {
   testing::CommandResult r = RunFlatscan(base + fmt::format(" -o '{}' --json '{}'", path("plane.yml"),
                                                             path("report.json")));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const SupportPlane plane = ReadPlaneFile(path("plane.yml"));
+  const PlaneFile file = ReadPlaneFile(path("plane.yml"));
+  EXPECT_EQ(file.rig_sha256, Sha256HexOfFile(path("rig.yml")));
+  const SupportPlane& plane = file.plane;
   EXPECT_EQ(plane.markers.size(), 4u);
   EXPECT_LT(ErrorsOf(p.station, plane.normal, plane.point).normal_deg, 0.005);
   const nlohmann::json report = nlohmann::json::parse(testing::ReadFileBytes(path("report.json")));
   for (const char* key : {"normal", "point", "residuals_mm", "markers_found", "paper_fit", "tls_fit",
                           "normals_angle_deg", "markers"})
     EXPECT_TRUE(report.contains(key)) << key;
+  EXPECT_EQ(report["rig_sha256"], file.rig_sha256);
   EXPECT_EQ(report["markers_found"]["left"], 4);
   EXPECT_EQ(report["markers_found"]["right"], 4);
   EXPECT_EQ(report["residuals_mm"].size(), 4u);

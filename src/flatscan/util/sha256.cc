@@ -67,4 +67,8 @@ std::string Sha256HexOfFile(const std::filesystem::path& path) {
   return Sha256Hex(s.str());
 }
 
+bool IsSha256Hex(const std::string& text) {
+  return text.size() == 64 && text.find_first_not_of("0123456789abcdef") == std::string::npos;
+}
+
 }  // namespace flatscan

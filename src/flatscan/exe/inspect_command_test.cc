@@ -1,0 +1,161 @@
+// `flatscan inspect` end to end: exit codes, the JSON record, batches, and the checks
+// of the plane file against the rig (docs/conventions.md, "Plane file").
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "flatscan/io/rig_file.h"
+#include "flatscan/util/sha256.h"
+#include "flatscan/util/test_util.h"
+
+namespace flatscan {
+namespace {
+namespace fs = std::filesystem;
+
+TEST(InspectCommand, ExitCodesJsonAndBatch) {
+  testing::ScratchDir dir("inspect-cli");
+  const std::string data = (dir.path() / "data").string();
+  auto sim = testing::RunFlatscan("simulate --preset paper --parts 2 --no-calibration --no-markers --seed 3 -q -o " + data);
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const auto truth = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "data/truth.json"));
+  const double t = truth["parts"][0]["thickness_mm"].get<double>();
+  const double flat = truth["parts"][0]["flatness_mm"].get<double>();
+  const std::string common = fmt::format("inspect --rig {0}/rig.yml --plane {0}/plane_true.yml --thickness {1} ", data, t);
+  const std::string pair0 = fmt::format("--left {0}/parts/part_000_left.png --right {0}/parts/part_000_right.png ", data);
+  // Pass and fail around the measured flatness.
+  auto r = testing::RunFlatscan(common + pair0 + fmt::format("--tolerance {} --json {}/out.json", flat + 0.02, data));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "data/out.json"));
+  EXPECT_EQ(j["verdict"], "pass");
+  EXPECT_NEAR(j["flatness_mm"].get<double>(), flat, 0.008);
+  for (const char* key : {"lsq_pv_mm", "minzone_mm", "tolerance_mm", "thickness_mm", "coverage", "timing_ms", "points"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["inputs"]["rig_sha256"].get<std::string>().size(), 64u);
+  r = testing::RunFlatscan(common + pair0 + fmt::format("--tolerance {} --ply {}/out.ply", flat - 0.02, data));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(testing::ReadFileBytes(dir.path() / "data/out.ply").rfind("ply\nformat ascii 1.0\n", 0), 0u);
+  // Bad input: exit 2 and no result file.
+  r = testing::RunFlatscan(common + fmt::format("--left {0}/missing.png --right {0}/parts/part_000_right.png --tolerance 0.1 --json {0}/bad.json", data));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(data + "/missing.png: no such file"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "data/bad.json"));
+  // Batch: goes on past a pair that cannot be measured, no verdict for it.
+  std::ofstream(dir.path() / "data/batch.csv") << "id,left,right\n"
+                                               << "a,parts/part_000_left.png,parts/part_000_right.png\n"
+                                               << "broken,parts/part_000_left.png,parts/nothing.png\n"
+                                               << "b,parts/part_001_left.png,parts/part_001_right.png\n";
+  r = testing::RunFlatscan(common + fmt::format("--pairs {0}/batch.csv --tolerance 1.0 --json {0}/batch.jsonl", data));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  std::stringstream lines(testing::ReadFileBytes(dir.path() / "data/batch.jsonl"));
+  std::vector<nlohmann::json> records;
+  for (std::string line; std::getline(lines, line);) records.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(records.size(), 4u);
+  EXPECT_EQ(records[0]["verdict"], "pass");
+  EXPECT_FALSE(records[1]["measured"].get<bool>());
+  EXPECT_TRUE(records[1]["verdict"].is_null());
+  EXPECT_EQ(records[2]["verdict"], "pass");
+  EXPECT_EQ(records[3]["not_measured"], 1);
+}
+
+
+// One simulated part (true flatness well above the tolerance) and the files to inspect it.
+class InspectPlaneChecks : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::ScratchDir("inspect-plane");
+    const auto sim = testing::RunFlatscan("simulate --preset paper --parts 1 --no-calibration --no-markers --seed 5 -q -o " +
+                                          Data().string());
+    ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static fs::path Data() { return dir_->path() / "data"; }
+
+  // inspect with `rig` and `plane` (paths), tolerance 1 mm (every part passes), JSON to out.json.
+  static testing::CommandResult Inspect(const fs::path& rig, const fs::path& plane, const std::string& extra = "") {
+    const auto truth = nlohmann::json::parse(testing::ReadFileBytes(Data() / "truth.json"));
+    return testing::RunFlatscan(fmt::format(
+        "inspect --rig {0} --plane {1} --thickness {2} --left {3}/parts/part_000_left.png --right "
+        "{3}/parts/part_000_right.png --tolerance 1 --json {4} {5}",
+        rig.string(), plane.string(), truth["parts"][0]["thickness_mm"].get<double>(), Data().string(),
+        (Data() / "out.json").string(), extra));
+  }
+  static nlohmann::json Output() { return nlohmann::json::parse(testing::ReadFileBytes(Data() / "out.json")); }
+
+  void SetUp() override { fs::remove(Data() / "out.json"); }
+
+  static testing::ScratchDir* dir_;
+};
+testing::ScratchDir* InspectPlaneChecks::dir_ = nullptr;
+
+TEST_F(InspectPlaneChecks, TheSimulatorsPlaneMatchesItsRig) {
+  const auto r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(Output()["inputs"]["plane_rig"], "matches");
+  EXPECT_EQ(r.err.find("warn"), std::string::npos) << r.err;
+}
+
+// Before the check, a reversed normal made every height negative and a part of true
+// flatness 0.282 mm passed at tolerance 0.1.
+TEST_F(InspectPlaneChecks, AReversedNormalIsRefused) {
+  PlaneFile file = ReadPlaneFile(Data() / "plane_true.yml");
+  file.plane.normal = -file.plane.normal;
+  const fs::path reversed = Data() / "plane_reversed.yml";
+  WritePlaneFile(reversed, file.plane, file.rig_sha256);
+  const auto r = Inspect(Data() / "rig.yml", reversed, "--allow-foreign-plane");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("{}: key 'normal' must point toward the cameras of '{}', but camera 1 lies",
+                                   reversed.string(), (Data() / "rig.yml").string())),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(Data() / "out.json"));
+}
+
+// Before the check, a plane calibrated with another rig was taken silently (7 um low).
+TEST_F(InspectPlaneChecks, APlaneOfAnotherRigIsRefusedUnlessAllowed) {
+  StereoRig other = ReadRigFile(Data() / "rig.yml");
+  other.cam2_from_cam1.translation.x() += 0.05;
+  const fs::path other_rig = Data() / "rig_other.yml";
+  WriteRigFile(other_rig, other);
+  const fs::path plane = Data() / "plane_true.yml";
+  auto r = Inspect(other_rig, plane);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("{}: calibrated with another rig file (rig_sha256 {}...) than '{}' (SHA-256 {}...): "
+                                   "recalibrate the plane with this rig, or give --allow-foreign-plane to measure anyway",
+                                   plane.string(), Sha256HexOfFile(Data() / "rig.yml").substr(0, 12),
+                                   other_rig.string(), Sha256HexOfFile(other_rig).substr(0, 12))),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(Data() / "out.json"));
+
+  r = Inspect(other_rig, plane, "--allow-foreign-plane");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find(fmt::format("{}: calibrated with another rig file than '{}' (--allow-foreign-plane)",
+                                   plane.string(), other_rig.string())),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(Output()["inputs"]["plane_rig"], "foreign");
+}
+
+TEST_F(InspectPlaneChecks, APlaneFileWithoutItsRigGetsAWarning) {
+  const PlaneFile file = ReadPlaneFile(Data() / "plane_true.yml");
+  const fs::path old = Data() / "plane_old.yml";
+  WritePlaneFile(old, file.plane, "");
+  const auto r = Inspect(Data() / "rig.yml", old);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find(old.string() + ": the plane file does not say which rig it was calibrated with"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(Output()["inputs"]["plane_rig"], "unknown");
+}
+
+}  // namespace
+}  // namespace flatscan
