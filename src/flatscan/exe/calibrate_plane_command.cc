@@ -12,8 +12,9 @@
 
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/options.h"
-#include "flatscan/io/image_io.h"
 #include "flatscan/io/atomic_output.h"
+#include "flatscan/io/image_io.h"
+#include "flatscan/io/output_files.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/support_plane/plane_calibration.h"
 #include "flatscan/util/error.h"
@@ -47,6 +48,9 @@ class CalibratePlaneCommand : public Command {
 
   int Run() override {
     const auto start = std::chrono::steady_clock::now();
+    OutputFiles out({{"--rig", rig_}, {"--left", left_}, {"--right", right_}});
+    out.Declare("--output", output_);
+    out.Declare("--json", json_, OutputFiles::kStdoutAllowed);
     const StereoRig rig = ReadRigFile(rig_);
     const cv::Mat1b left = ReadGreyImage(left_);
     const cv::Mat1b right = ReadGreyImage(right_);
@@ -66,8 +70,9 @@ class CalibratePlaneCommand : public Command {
     report.update({{"rig", rig_}, {"rig_sha256", rig_sha256}, {"left", left_}, {"right", right_},
                    {"plane_file", output_}, {"time_ms", ms}});
 
-    WritePlaneFile(output_, cal.plane, rig_sha256);
-    if (!json_.empty()) WriteTextFileAtomically(json_, report.dump(2) + "\n");
+    out.Stage("--output", [&](const std::filesystem::path& tmp) { WritePlaneFile(tmp, cal.plane, rig_sha256); });
+    if (!json_.empty()) out.StageText("--json", report.dump(2) + "\n");
+    out.Commit();
 
     std::cout << fmt::format("plane: normal ({:.6f}, {:.6f}, {:.6f}), point ({:.4f}, {:.4f}, {:.4f}) mm\n",
                              cal.plane.normal.x(), cal.plane.normal.y(), cal.plane.normal.z(), cal.plane.point.x(),

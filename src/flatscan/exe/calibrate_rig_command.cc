@@ -14,6 +14,7 @@
 #include "flatscan/exe/options.h"
 #include "flatscan/exe/parse_util.h"
 #include "flatscan/io/atomic_output.h"
+#include "flatscan/io/output_files.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
 
@@ -63,11 +64,17 @@ class CalibrateRigCommand : public Command {
     options.board.rows = rows;
     options.board.square_mm = square_mm_;
     options.model = ParseDistortionModel(model_);
-    CheckOutputFolder(output_, "--output");
-    if (!json_.empty()) CheckOutputFolder(json_, "--json");
     options.progress = [](const std::string& s) { spdlog::debug("{}", s); };
 
     const std::vector<ImagePairFiles> pairs = PairImagesByName(left_, right_);
+    std::vector<OutputFiles::Named> inputs;
+    for (const ImagePairFiles& p : pairs) {
+      inputs.emplace_back("--left", p.left);
+      inputs.emplace_back("--right", p.right);
+    }
+    OutputFiles out(inputs);
+    out.Declare("--output", output_);
+    out.Declare("--json", json_, OutputFiles::kStdoutAllowed);
     spdlog::info("calibrate-rig: {} image pairs, board {}x{} inner corners, {} mm squares", pairs.size(), columns, rows,
                  square_mm_);
     const RigCalibrationReport report = CalibrateRig(pairs, options);
@@ -77,13 +84,11 @@ class CalibrateRigCommand : public Command {
                    "the focus and the pairs with the largest errors",
                    report.rms_px);
 
-    // Written only now that everything is computed; both writes are atomic.
-    WriteRigFile(output_, report.rig);
-    std::cout << "wrote " << output_ << "\n";
-    if (!json_.empty()) {
-      WriteTextFileAtomically(json_, report.ToJson().dump(2) + "\n");
-      std::cout << "wrote " << json_ << "\n";
-    }
+    // Written only now that everything is computed, together.
+    out.Stage("--output", [&](const std::filesystem::path& tmp) { WriteRigFile(tmp, report.rig); });
+    if (!json_.empty()) out.StageText("--json", report.ToJson().dump(2) + "\n");
+    out.Commit();
+    std::cout << "wrote " << output_ << (json_.empty() || json_ == "-" ? "" : " and " + json_) << "\n";
     return 0;
   }
 

@@ -1,7 +1,12 @@
 #include "flatscan/exe/cli.h"
 
+#include <pthread.h>
+#include <signal.h>
+#include <unistd.h>
+
 #include <iostream>
 #include <memory>
+#include <thread>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
@@ -11,11 +16,38 @@
 
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/number_checks.h"
+#include "flatscan/io/atomic_output.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
 
+namespace {
+
+// SIGINT and SIGTERM (Ctrl-C, a stopping service) are taken by one thread, outside any
+// signal handler, so that it may remove the partial outputs (staging folders,
+// temporaries) before the process ends: an interrupted run leaves nothing behind, and its
+// exit code is 2 (could not run). Call before any other thread starts, so that every
+// thread inherits the blocked signals.
+void RemovePartialOutputsOnInterrupt() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  if (pthread_sigmask(SIG_BLOCK, &signals, nullptr) != 0) return;
+  std::thread([signals] {
+    int signal = 0;
+    if (sigwait(&signals, &signal) != 0) return;
+    const char message[] = "flatscan: interrupted; partial outputs removed\n";
+    RemoveRegisteredForCleanup();
+    [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, message, sizeof(message) - 1);
+    ::_exit(2);
+  }).detach();
+}
+
+}  // namespace
+
 int RunCli(int argc, char** argv) {
+  RemovePartialOutputsOnInterrupt();
   CLI::App app{"flatscan: flatness inspection of thin metal parts with two cameras and a backlight.\n"
                "Exit codes: 0 success / measured and pass, 1 measured and fail, 2 could not measure or bad input."};
   app.set_version_flag("--version", std::string("flatscan ") + FLATSCAN_VERSION);

@@ -1,5 +1,12 @@
 // End-to-end tests of the flatscan binary: exit codes, messages, and outputs.
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
 #include <fstream>
+#include <thread>
 #include <string>
 #include <utility>
 #include <vector>
@@ -84,6 +91,31 @@ TEST(Cli, NumericOptionsAreCheckedAtParseTime) {
   }
 }
 
+// Before: Ctrl-C left a "<out>.partial-PID" folder behind.
+TEST(Cli, AnInterruptedRunLeavesNoPartialOutput) {
+  ScratchDir dir("cli-interrupt");
+  const auto scene = WriteSmallScene(dir.path());
+  const std::string out = (dir.path() / "out").string();
+  std::vector<std::string> args = {FLATSCAN_BINARY, "simulate", "--scene", scene.string(), "--parts", "200", "-q", "-o", out};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, FLATSCAN_BINARY, nullptr, nullptr, argv.data(), environ), 0);
+  const std::filesystem::path partial = out + ".partial-" + std::to_string(pid);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!std::filesystem::exists(partial / "rig.yml") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_TRUE(std::filesystem::exists(partial)) << "the run did not start within 30 s";
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // in the middle of rendering
+  ASSERT_EQ(kill(pid, SIGINT), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  EXPECT_TRUE(NothingNamedLike(dir.path(), "out"));
+}
+
 TEST(Cli, SimulateIsDeterministicForASeed) {
   ScratchDir dir("cli-determinism");
   const auto scene = WriteSmallScene(dir.path());
@@ -99,7 +131,8 @@ TEST(Cli, SimulateIsDeterministicForASeed) {
     EXPECT_EQ(testing::ReadFileBytes(entry.path()), testing::ReadFileBytes(dir.path() / "b" / rel)) << rel;
     ++compared;
   }
-  EXPECT_EQ(compared, 2 * 2 + 1 + 2 + 2 * 2 + 5);  // calib pairs + board.json, markers, parts, rig/plane/scene/pairs/truth
+  // calib pairs + board.json, markers, parts, rig/plane/scene/pairs/truth, .flatscan-output
+  EXPECT_EQ(compared, 2 * 2 + 1 + 2 + 2 * 2 + 5 + 1);
   EXPECT_NE(testing::ReadFileBytes(dir.path() / "a/parts/part_000_left.png"),
             testing::ReadFileBytes(dir.path() / "c/parts/part_000_left.png"));
   const auto truth = nlohmann::json::parse(testing::ReadFileBytes(dir.path() / "a/truth.json"));

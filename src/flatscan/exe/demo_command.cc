@@ -27,6 +27,7 @@ class DemoCommand : public Command {
                                       "with the truth.");
     sub_->footer("Example: flatscan demo -o flatscan-demo");
     AddOutputOption(sub_, &output_, "dataset folder (written, then used)")->default_val(output_);
+    AddForceFlag(sub_, &force_);
     AddSeedOption(sub_, &seed_);
     sub_->add_option("--parts", parts_, "number of parts")->default_val(parts_)->check(IntegerIn(1, 100000));
     Fills(AddToleranceOption(sub_, &options_.tolerance_mm), "tolerance_mm");
@@ -44,6 +45,7 @@ class DemoCommand : public Command {
     simulate.scene.board.poses = kDefaultCalibrationPoses;
     simulate.seed = seed_;
     simulate.output_dir = output_;
+    simulate.replace_any_folder = force_;
     SimulateDataset(simulate, [](const std::string& s) { spdlog::info("rendering {}", s); });
     std::cout << fmt::format("1. simulated {} ({} preset: 2 x {} x {} px, {} chessboard pairs, marker pair, {} parts) in {:.1f} s\n",
                              output_, preset_, simulate.scene.left_camera.width, simulate.scene.left_camera.height,
@@ -90,6 +92,7 @@ class DemoCommand : public Command {
   int parts_ = 6;
   std::string preset_ = "paper";
   bool no_correction_ = false;
+  bool force_ = false;
   StudyOptions options_;
 };
 

@@ -13,6 +13,7 @@
 #include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/image_io.h"
+#include "flatscan/io/output_files.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -55,6 +56,9 @@ class EdgesCommand : public Command {
   int Run() override {
     if (!overlay_.empty() && !cv::haveImageWriter(overlay_))
       ThrowInputError("{}: unknown image format for --overlay (use .png, .jpg, .bmp or .tif)", overlay_);
+    OutputFiles out({{"image", image_}});
+    out.Declare("--csv", csv_, OutputFiles::kStdoutAllowed);
+    out.Declare("--overlay", overlay_);
     const cv::Mat1b image = ReadEdgesInputImage(image_);
     BoundaryOptions options;
     options.method = method_ == "canny"     ? EdgeMethod::kCannyPixel
@@ -64,16 +68,17 @@ class EdgesCommand : public Command {
     options.blur_sigma_px = blur_;
     const BoundaryResult result = DetectBoundary(image, options);
     if (result.points.empty()) spdlog::warn("{}: no edge found; the CSV has only its header", image_);
-    WriteTextFileAtomically(csv_, BoundaryPointsCsv(result));
+    out.StageText("--csv", BoundaryPointsCsv(result));
     if (!overlay_.empty()) {
       const int scale =
           overlay_scale_ > 0 ? overlay_scale_ : std::clamp(1024 / std::max(image.cols, image.rows), 1, 8);
       const cv::Mat3b overlay = DrawBoundaryOverlay(image, result, scale);
-      WriteFileAtomically(overlay_, [&](const std::filesystem::path& tmp) {
+      out.Stage("--overlay", [&](const std::filesystem::path& tmp) {
         if (!cv::imwrite(tmp.string(), overlay)) ThrowInputError("cannot write '{}'", overlay_);
       });
     }
-    std::cout << fmt::format("{}: {} points in {} contours ({}, blur sigma {:.2f} px, {} edge pixels) -> {}\n",
+    out.Commit();
+    (csv_ == "-" ? std::cerr : std::cout) << fmt::format("{}: {} points in {} contours ({}, blur sigma {:.2f} px, {} edge pixels) -> {}\n",
                              image_, result.points.size(), result.contours.size(), EdgeMethodName(options.method),
                              result.blur_sigma_px, result.edge_pixels, csv_);
     return 0;

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -113,9 +114,23 @@ TEST(EdgesCommand, BadInputExitsTwoWithAClearMessageAndNoCsv) {
   std::filesystem::remove(csv);
   r = RunFlatscan("edges " + disc.string() + " --csv " + (dir.path() / "no-folder" / "out.csv").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("cannot write '" + (dir.path() / "no-folder" / "out.csv").string() + "'"), std::string::npos)
+  EXPECT_NE(r.err.find(fmt::format("--csv '{}': the folder '{}' does not exist", (dir.path() / "no-folder/out.csv").string(),
+                                   (dir.path() / "no-folder").string())),
+            std::string::npos)
       << r.err;
   EXPECT_FALSE(std::filesystem::exists(csv));
+  // Before: the CSV replaced the input image (exit 0).
+  const std::string image_bytes = testing::ReadFileBytes(disc);
+  r = RunFlatscan("edges " + disc.string() + " --csv " + disc.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--csv '{}': is the input of image; choose another output name", disc.string())),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(testing::ReadFileBytes(disc), image_bytes);
+  // "-": the CSV on standard output, the summary on stderr.
+  r = RunFlatscan("edges " + disc.string() + " --csv -");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("x,y,nx,ny,h,contour\n", 0), 0u) << r.out.substr(0, 200);
 }
 
 TEST(EdgesCommand, ConvertsSixteenBitAndColourImagesWithAWarning) {

@@ -39,6 +39,7 @@ class EvaluateCommand : public Command {
                  "         flatscan evaluate --scene my_rig.yml --batch 200 -o eval-my-rig");
     AddSceneOptions(sub_, &preset_, &scene_file_);
     AddOutputOption(sub_, &output_, "output folder (replaced if it exists)")->default_val(output_);
+    AddForceFlag(sub_, &force_);
     AddSeedOption(sub_, &seed_);
     sub_->add_flag("--repeat", repeat_, "Table 1: one part shot --shots times");
     Fills(sub_->add_option("--shots", repeat_options_.shots, "shots of the repeat study")
@@ -103,7 +104,7 @@ class EvaluateCommand : public Command {
       o->inspection.side_faces = side_faces_;
     }
     const auto start = std::chrono::steady_clock::now();
-    StagedDirectory dir(output_);
+    StagedDirectory dir(output_, force_);
     const std::filesystem::path root = dir.path();
     spdlog::info("simulating and calibrating the station '{}'", scene.name);
     CalibratedStation station = SimulateAndCalibrateStation(
@@ -168,6 +169,7 @@ class EvaluateCommand : public Command {
   std::string output_ = "flatscan-evaluate";
   uint64_t seed_ = 1;
   bool repeat_ = false;
+  bool force_ = false;
   bool no_correction_ = false;
   SideFaceModel side_faces_ = SideFaceModel::kLocalNormal;
   bool true_calibration_ = false;

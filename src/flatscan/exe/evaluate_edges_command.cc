@@ -8,6 +8,7 @@
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
+#include "flatscan/io/output_files.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -37,6 +38,8 @@ class EvaluateEdgesCommand : public Command {
     options.known_blur = known_blur_;
     options.restrict_discs_to_part = !whole_image_;
     options.progress = [](const std::string& s) { spdlog::info("{}", s); };
+    OutputFiles out({});
+    out.Declare("--json", json_);
     const auto start = std::chrono::steady_clock::now();
     const std::vector<EdgeAccuracyRow> rows = RunEdgeAccuracy(options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -63,7 +66,8 @@ class EvaluateEdgesCommand : public Command {
       for (const EdgeTargetCheck& c : checks)
         targets.push_back({{"what", c.what}, {"value", c.value}, {"limit", c.limit}, {"pass", c.pass}});
       j["targets"] = targets;
-      WriteTextFileAtomically(json_, j.dump(2) + "\n");
+      out.StageText("--json", j.dump(2) + "\n");
+      out.Commit();
     }
     spdlog::info("evaluated {} conditions in {:.1f} s", rows.size(), seconds);
     return 0;

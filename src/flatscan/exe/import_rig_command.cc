@@ -8,6 +8,7 @@
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/options.h"
 #include "flatscan/exe/parse_util.h"
+#include "flatscan/io/output_files.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
 
@@ -38,9 +39,11 @@ class ImportRigCommand : public Command {
 
   int Run() override {
     const auto [width, height] = ParseImageSize(size_);
-    CheckOutputFolder(output_, "--output");
+    OutputFiles out({{"--intrinsics", intrinsics_}, {"--extrinsics", extrinsics_}});
+    out.Declare("--output", output_);
     const StereoRig rig = ImportOpenCvStereoCalib(intrinsics_, extrinsics_, width, height);
-    WriteRigFile(output_, rig);
+    out.Stage("--output", [&](const std::filesystem::path& tmp) { WriteRigFile(tmp, rig); });
+    out.Commit();
     std::cout << fmt::format("imported {} and {}: {}x{}, baseline {:.4f} mm\nwrote {}\n", intrinsics_, extrinsics_,
                              width, height, rig.BaselineMm(), output_);
     return 0;

@@ -1,5 +1,9 @@
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -10,6 +14,7 @@
 #include "flatscan/inspection/inspection_report.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/image_io.h"
+#include "flatscan/io/output_files.h"
 #include "flatscan/io/pairs_csv.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
@@ -58,8 +63,21 @@ class InspectCommand : public Command {
   int Run() override {
     if (pairs_.empty() && (left_.empty() || right_.empty()))
       ThrowInputError("inspect: give --left and --right, or --pairs");
+    if (!pairs_.empty() && !ply_.empty())
+      ThrowInputError("--ply: a PLY is written for a single pair (--left, --right), not for a batch (--pairs)");
     CheckFlatnessSpec(spec_);
     params_.thickness_correction = !no_correction_;
+    // Every input is read and every output checked before the first part is measured.
+    std::vector<PairEntry> pairs;
+    if (!pairs_.empty()) pairs = ReadPairsCsv(pairs_);
+    OutputFiles out(Inputs(pairs));
+    out.Declare("--json", json_, OutputFiles::kStdoutAllowed);
+    if (pairs.empty()) {
+      out.Declare("--ply", ply_);
+      DeclareOverlays(out, overlay_);
+    } else if (!overlay_.empty()) {
+      RequireFolderOrNew("--overlay", overlay_);
+    }
     const StereoRig rig = ReadRigFile(rig_);
     const PlaneFile plane_file = ReadPlaneFile(plane_);
     InspectionInputs base{"", rig_, plane_, "", "", Sha256HexOfFile(rig_), Sha256HexOfFile(plane_)};
@@ -71,30 +89,76 @@ class InspectCommand : public Command {
                    "before that key existed); recalibrate it with `flatscan calibrate-plane` to have it checked",
                    plane_);
     const SupportPlane& plane = plane_file.plane;
-    if (pairs_.empty()) return RunOne(rig, plane, base);
-    return RunBatch(rig, plane, base);
+    if (pairs.empty()) return RunOne(rig, plane, base, out);
+    return RunBatch(rig, plane, base, pairs, out);
   }
 
  private:
-  int RunOne(const StereoRig& rig, const SupportPlane& plane, InspectionInputs inputs) {
+  // The command's input files: the rig, the plane, the CSV and every image it names.
+  std::vector<OutputFiles::Named> Inputs(const std::vector<PairEntry>& pairs) const {
+    std::vector<OutputFiles::Named> inputs = {{"--rig", rig_}, {"--plane", plane_}, {"--pairs", pairs_},
+                                              {"--left", left_}, {"--right", right_}};
+    for (const PairEntry& p : pairs) {
+      inputs.emplace_back("--pairs (" + p.id + ")", p.left);
+      inputs.emplace_back("--pairs (" + p.id + ")", p.right);
+    }
+    return inputs;
+  }
+
+  static void DeclareOverlays(OutputFiles& out, const std::string& dir) {
+    if (dir.empty()) return;
+    RequireFolderOrNew("--overlay", dir);
+    out.Declare("--overlay (left)", std::filesystem::path(dir) / "left_overlay.png", OutputFiles::kCreateFolder);
+    out.Declare("--overlay (right)", std::filesystem::path(dir) / "right_overlay.png", OutputFiles::kCreateFolder);
+  }
+
+  static void RequireFolderOrNew(const std::string& option, const std::string& dir) {
+    std::error_code ec;
+    const auto status = std::filesystem::symlink_status(dir, ec);
+    if (std::filesystem::exists(status) && status.type() != std::filesystem::file_type::directory)
+      ThrowInputError("{} '{}': exists and is not a folder (the overlays go into a folder)", option, dir);
+  }
+
+  // Stdout carries the JSON when --json is "-"; the summary then goes to stderr.
+  std::ostream& Text() const { return json_ == "-" ? std::cerr : std::cout; }
+
+  int RunOne(const StereoRig& rig, const SupportPlane& plane, InspectionInputs inputs, OutputFiles& out) {
     inputs.left_file = left_;
     inputs.right_file = right_;
-    const cv::Mat1b l = ReadGreyImage(left_), r = ReadGreyImage(right_);
-    const InspectionResult result = InspectPart(rig, plane, l, r, params_, left_, right_);
-    const InspectionRecord record = MeasuredRecord(result, params_, spec_, inputs);
-    PrintSummary(record);
-    if (!json_.empty()) WriteTextFileAtomically(json_, RecordToJson(record).dump(2) + "\n");
-    if (!ply_.empty()) WritePly(ply_, result);
-    if (!overlay_.empty()) WriteOverlays(overlay_, l, r, result);
+    // A missing image is a usage error (nothing written); one that cannot be decoded or
+    // measured is a part that was not measured, and gets its record.
+    for (const std::string& image : {left_, right_})
+      if (!std::filesystem::is_regular_file(image)) ThrowInputError("{}: no such file", image);
+    cv::Mat1b l, r;
+    std::optional<InspectionResult> result;
+    InspectionRecord record;
+    try {
+      l = ReadGreyImage(left_);
+      r = ReadGreyImage(right_);
+      result = InspectPart(rig, plane, l, r, params_, left_, right_);
+      record = MeasuredRecord(*result, params_, spec_, inputs);
+    } catch (const InputError& e) {
+      record = NotMeasuredRecord(e.what(), params_, spec_, inputs);
+    }
+    if (record.measured) PrintSummary(record);
+    out.StageText("--json", RecordToJson(record).dump(2) + "\n");
+    if (result && !ply_.empty()) out.Stage("--ply", [&](const std::filesystem::path& tmp) { WritePly(tmp.string(), *result); });
+    if (result && !overlay_.empty()) StageOverlays(out, l, r, *result);
+    out.Commit();
+    if (!record.measured) {
+      spdlog::error("not measured: {}", record.error);
+      return 2;
+    }
     return record.judgement.pass() ? 0 : 1;
   }
 
-  int RunBatch(const StereoRig& rig, const SupportPlane& plane, const InspectionInputs& base) {
-    const std::vector<PairEntry> pairs = ReadPairsCsv(pairs_);
+  int RunBatch(const StereoRig& rig, const SupportPlane& plane, const InspectionInputs& base,
+               const std::vector<PairEntry>& pairs, OutputFiles& out) {
     std::string lines;
     int pass = 0, fail = 0, unmeasured = 0, marginal = 0;
     double total_ms = 0;
-    std::cout << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", "id", "flatness_mm", "coverage", "verdict", "note");
+    std::set<std::string> overlay_names;
+    Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", "id", "flatness_mm", "coverage", "verdict", "note");
     for (const PairEntry& p : pairs) {
       InspectionInputs inputs = base;
       inputs.id = p.id;
@@ -108,15 +172,18 @@ class InspectCommand : public Command {
         (record.judgement.pass() ? pass : fail)++;
         marginal += record.judgement.marginal;
         total_ms += record.TotalMs();
-        std::cout << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", p.id, record.values.flatness_mm,
-                                 record.coverage, VerdictName(record.judgement.verdict),
-                                 record.judgement.marginal ? "marginal" : "");
-        if (!overlay_.empty()) WriteOverlays((std::filesystem::path(overlay_) / p.id).string(), l, r, result);
+        Text() << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", p.id, record.values.flatness_mm,
+                              record.coverage, VerdictName(record.judgement.verdict),
+                              record.judgement.marginal ? "marginal" : "");
+        if (!overlay_.empty()) {
+          const std::string name = UniqueFileName(SafeFileName(p.id), &overlay_names);
+          WriteOverlays((std::filesystem::path(overlay_) / name).string(), l, r, result);
+        }
       } catch (const InputError& e) {
         ++unmeasured;
         record = NotMeasuredRecord(e.what(), params_, spec_, inputs);
         spdlog::error("{}: not measured: {}", p.id, e.what());
-        std::cout << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", p.id, "-", "-", "-", "not measured");
+        Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", p.id, "-", "-", "-", "not measured");
       }
       lines += RecordToJson(record).dump() + "\n";
     }
@@ -124,17 +191,18 @@ class InspectCommand : public Command {
                                     {"not_measured", unmeasured}, {"marginal", marginal},
                                     {"mean_time_ms", pass + fail > 0 ? total_ms / (pass + fail) : 0.0}};
     lines += summary.dump() + "\n";
-    std::cout << fmt::format("{} parts: {} pass, {} fail, {} not measured{}\n", pairs.size(), pass, fail, unmeasured,
-                             spec_.guard_band_mm > 0
-                                 ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, spec_.guard_band_mm)
-                                 : "");
-    if (!json_.empty()) WriteTextFileAtomically(json_, lines);
+    Text() << fmt::format("{} parts: {} pass, {} fail, {} not measured{}\n", pairs.size(), pass, fail, unmeasured,
+                          spec_.guard_band_mm > 0
+                              ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, spec_.guard_band_mm)
+                              : "");
+    out.StageText("--json", lines);
+    out.Commit();
     if (unmeasured > 0) return 2;
     return fail > 0 ? 1 : 0;
   }
 
   void PrintSummary(const InspectionRecord& r) const {
-    std::cout << fmt::format(
+    Text() << fmt::format(
         "flatness_mm {:.4f}  lsq_pv_mm {:.4f}  minzone_mm {:.4f}\nverdict {} (tolerance {:.3f} mm, thickness {:.3f} mm)\n"
         "points: {} valid of {} matched ({} / {} crossings), coverage {:.3f}{}\ntime {:.1f} ms\n",
         r.values.flatness_mm, r.values.lsq_pv_mm, r.values.minzone_mm,
@@ -142,6 +210,15 @@ class InspectCommand : public Command {
             (r.judgement.marginal ? fmt::format(" MARGINAL: within the {:.4f} mm guard band", r.spec.guard_band_mm) : ""),
         r.spec.tolerance_mm, r.thickness_mm, r.valid, r.matched, r.crossings_left, r.crossings_right, r.coverage,
         r.completed > 0 ? fmt::format(" ({} outline points completed from the warp fit)", r.completed) : "", r.TotalMs());
+  }
+
+  void StageOverlays(OutputFiles& out, const cv::Mat1b& l, const cv::Mat1b& r, const InspectionResult& result) const {
+    out.Stage("--overlay (left)", [&](const std::filesystem::path& tmp) {
+      WriteImage(tmp.string(), DrawHeightOverlay(l, result, RigSide::kLeft, spec_));
+    });
+    out.Stage("--overlay (right)", [&](const std::filesystem::path& tmp) {
+      WriteImage(tmp.string(), DrawHeightOverlay(r, result, RigSide::kRight, spec_));
+    });
   }
 
   void WriteOverlays(const std::string& dir, const cv::Mat1b& l, const cv::Mat1b& r, const InspectionResult& result) const {

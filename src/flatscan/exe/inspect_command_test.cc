@@ -9,6 +9,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/sha256.h"
@@ -65,7 +67,7 @@ TEST(InspectCommand, ExitCodesJsonAndBatch) {
 
 
 // One simulated part (true flatness well above the tolerance) and the files to inspect it.
-class InspectPlaneChecks : public ::testing::Test {
+class InspectOnePart : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::ScratchDir("inspect-plane");
@@ -79,14 +81,24 @@ class InspectPlaneChecks : public ::testing::Test {
   }
   static fs::path Data() { return dir_->path() / "data"; }
 
-  // inspect with `rig` and `plane` (paths), tolerance 1 mm (every part passes), JSON to out.json.
-  static testing::CommandResult Inspect(const fs::path& rig, const fs::path& plane, const std::string& extra = "") {
+  static double Thickness() {
     const auto truth = nlohmann::json::parse(testing::ReadFileBytes(Data() / "truth.json"));
-    return testing::RunFlatscan(fmt::format(
-        "inspect --rig {0} --plane {1} --thickness {2} --left {3}/parts/part_000_left.png --right "
-        "{3}/parts/part_000_right.png --tolerance 1 --json {4} {5}",
-        rig.string(), plane.string(), truth["parts"][0]["thickness_mm"].get<double>(), Data().string(),
-        (Data() / "out.json").string(), extra));
+    return truth["parts"][0]["thickness_mm"].get<double>();
+  }
+  static fs::path Left() { return Data() / "parts/part_000_left.png"; }
+  static fs::path Right() { return Data() / "parts/part_000_right.png"; }
+
+  // inspect with `rig` and `plane` (paths) at tolerance 1 mm (every part passes), the
+  // part's pair unless `extra` gives --pairs or --left/--right, and JSON to `json`
+  // (a name in the data folder; "-" for standard output; "" for none).
+  static testing::CommandResult Inspect(const fs::path& rig, const fs::path& plane, const std::string& extra = "",
+                                        const std::string& json = "out.json") {
+    const bool own_pair = extra.find("--pairs") != std::string::npos || extra.find("--left") != std::string::npos;
+    const std::string pair = own_pair ? "" : fmt::format("--left {} --right {} ", Left().string(), Right().string());
+    const std::string json_arg =
+        json.empty() ? "" : "--json " + (json == "-" ? json : (Data() / json).string());
+    return testing::RunFlatscan(fmt::format("inspect --rig {} --plane {} --thickness {} --tolerance 1 {}{} {}",
+                                            rig.string(), plane.string(), Thickness(), pair, extra, json_arg));
   }
   static nlohmann::json Output() { return nlohmann::json::parse(testing::ReadFileBytes(Data() / "out.json")); }
 
@@ -94,9 +106,9 @@ class InspectPlaneChecks : public ::testing::Test {
 
   static testing::ScratchDir* dir_;
 };
-testing::ScratchDir* InspectPlaneChecks::dir_ = nullptr;
+testing::ScratchDir* InspectOnePart::dir_ = nullptr;
 
-TEST_F(InspectPlaneChecks, TheSimulatorsPlaneMatchesItsRig) {
+TEST_F(InspectOnePart, TheSimulatorsPlaneMatchesItsRig) {
   const auto r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(Output()["inputs"]["plane_rig"], "matches");
@@ -105,7 +117,7 @@ TEST_F(InspectPlaneChecks, TheSimulatorsPlaneMatchesItsRig) {
 
 // Before the check, a reversed normal made every height negative and a part of true
 // flatness 0.282 mm passed at tolerance 0.1.
-TEST_F(InspectPlaneChecks, AReversedNormalIsRefused) {
+TEST_F(InspectOnePart, AReversedNormalIsRefused) {
   PlaneFile file = ReadPlaneFile(Data() / "plane_true.yml");
   file.plane.normal = -file.plane.normal;
   const fs::path reversed = Data() / "plane_reversed.yml";
@@ -120,7 +132,7 @@ TEST_F(InspectPlaneChecks, AReversedNormalIsRefused) {
 }
 
 // Before the check, a plane calibrated with another rig was taken silently (7 um low).
-TEST_F(InspectPlaneChecks, APlaneOfAnotherRigIsRefusedUnlessAllowed) {
+TEST_F(InspectOnePart, APlaneOfAnotherRigIsRefusedUnlessAllowed) {
   StereoRig other = ReadRigFile(Data() / "rig.yml");
   other.cam2_from_cam1.translation.x() += 0.05;
   const fs::path other_rig = Data() / "rig_other.yml";
@@ -145,7 +157,7 @@ TEST_F(InspectPlaneChecks, APlaneOfAnotherRigIsRefusedUnlessAllowed) {
   EXPECT_EQ(Output()["inputs"]["plane_rig"], "foreign");
 }
 
-TEST_F(InspectPlaneChecks, APlaneFileWithoutItsRigGetsAWarning) {
+TEST_F(InspectOnePart, APlaneFileWithoutItsRigGetsAWarning) {
   const PlaneFile file = ReadPlaneFile(Data() / "plane_true.yml");
   const fs::path old = Data() / "plane_old.yml";
   WritePlaneFile(old, file.plane, "");
@@ -155,6 +167,96 @@ TEST_F(InspectPlaneChecks, APlaneFileWithoutItsRigGetsAWarning) {
             std::string::npos)
       << r.err;
   EXPECT_EQ(Output()["inputs"]["plane_rig"], "unknown");
+}
+
+// Before: --json onto the left image and --ply onto the rig replaced them (exit 0), and
+// --json /dev/null as root replaced the device.
+TEST_F(InspectOnePart, OutputsNeverReplaceInputsOrWhatIsNotARegularFile) {
+  const fs::path rig = Data() / "rig.yml", plane = Data() / "plane_true.yml";
+  const std::string left_bytes = testing::ReadFileBytes(Left()), rig_bytes = testing::ReadFileBytes(rig);
+  auto r = Inspect(rig, plane, "--json " + Left().string(), "");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--json '{}': is the input of --left; choose another output name", Left().string())),
+            std::string::npos)
+      << r.err;
+  r = Inspect(rig, plane, "--ply " + rig.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--ply '{}': is the input of --rig", rig.string())), std::string::npos) << r.err;
+  r = Inspect(rig, plane, "--json /dev/null", "");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--json '/dev/null': is a character device"), std::string::npos) << r.err;
+  EXPECT_EQ(testing::ReadFileBytes(Left()), left_bytes);
+  EXPECT_EQ(testing::ReadFileBytes(rig), rig_bytes);
+  EXPECT_FALSE(fs::exists(Data() / "out.json"));
+}
+
+// Before: a.json was written with a verdict, then the overlay or the PLY failed (exit 2).
+TEST_F(InspectOnePart, AnOutputThatCannotBeWrittenLeavesNoOtherOutput) {
+  const fs::path rig = Data() / "rig.yml", plane = Data() / "plane_true.yml";
+  std::ofstream(Data() / "a_file") << "x";
+  auto r = Inspect(rig, plane, "--overlay " + (Data() / "a_file").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("exists and is not a folder"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(Data() / "out.json"));
+  r = Inspect(rig, plane, "--ply /missing/x.ply");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--ply '/missing/x.ply': the folder '/missing' does not exist"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(Data() / "out.json"));
+  // All of them, when all can be written.
+  r = Inspect(rig, plane, fmt::format("--ply {0}/x.ply --overlay {0}/overlays", Data().string()));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  for (const char* name : {"out.json", "x.ply", "overlays/left_overlay.png", "overlays/right_overlay.png"})
+    EXPECT_TRUE(fs::is_regular_file(Data() / name)) << name;
+}
+
+TEST_F(InspectOnePart, JsonToStandardOutput) {
+  const auto r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml", "", "-");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);  // nothing else on stdout
+  EXPECT_EQ(j["verdict"], "pass");
+  EXPECT_NE(r.err.find("flatness_mm"), std::string::npos);  // the summary went to stderr
+}
+
+// Before: a part that could not be measured left no record in single-part mode.
+TEST_F(InspectOnePart, APartThatIsNotMeasuredStillGetsItsRecord) {
+  const cv::Mat1b backlight(1944, 2592, uchar{230});
+  const fs::path blank = Data() / "blank.png";
+  ASSERT_TRUE(cv::imwrite(blank.string(), backlight));
+  const auto r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml",
+                         fmt::format("--left {} --right {} --ply {}/y.ply", blank.string(), Right().string(),
+                                     Data().string()));
+  EXPECT_EQ(r.exit_code, 2);
+  const nlohmann::json j = Output();
+  EXPECT_EQ(j["measured"], false);
+  EXPECT_TRUE(j["verdict"].is_null());
+  EXPECT_EQ(j["error"].get<std::string>().rfind(blank.string() + ": no part found", 0), 0u) << j["error"];
+  EXPECT_FALSE(fs::exists(Data() / "y.ply"));  // no points to write
+  // A missing image is a usage error: no record.
+  fs::remove(Data() / "out.json");
+  EXPECT_EQ(Inspect(Data() / "rig.yml", Data() / "plane_true.yml",
+                    fmt::format("--left {}/none.png --right {}", Data().string(), Right().string()))
+                .exit_code,
+            2);
+  EXPECT_FALSE(fs::exists(Data() / "out.json"));
+}
+
+// Before: the id "../../escape" wrote its overlays two folders above --overlay.
+TEST_F(InspectOnePart, BatchIdsBecomeSafeFolderNames) {
+  std::ofstream(Data() / "escape.csv") << "id,left,right\n"
+                                       << "../../escape,parts/part_000_left.png,parts/part_000_right.png\n";
+  const fs::path overlays = Data() / "batch_overlays";
+  auto r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml",
+                   fmt::format("--pairs {} --overlay {}", (Data() / "escape.csv").string(), overlays.string()),
+                   "batch.jsonl");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(overlays / "_._.._escape" / "left_overlay.png"));
+  EXPECT_FALSE(fs::exists(Data().parent_path().parent_path() / "escape"));
+  r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml",
+              fmt::format("--pairs {} --ply {}/b.ply", (Data() / "escape.csv").string(), Data().string()), "");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--ply: a PLY is written for a single pair (--left, --right), not for a batch (--pairs)"),
+            std::string::npos)
+      << r.err;
 }
 
 }  // namespace

@@ -20,6 +20,14 @@ inline CLI::Option* AddOutputOption(CLI::App* sub, std::string* path, const std:
   return sub->add_option("-o,--output", *path, what);
 }
 
+// --force: an output folder that exists is replaced only if flatscan wrote it (it holds
+// StagedDirectory::kOutputMarker), or with this flag.
+inline CLI::Option* AddForceFlag(CLI::App* sub, bool* force) {
+  return sub->add_flag("--force", *force,
+                       "replace the output folder even if flatscan did not write it (without: only a folder with "
+                       "flatscan's .flatscan-output marker is replaced)");
+}
+
 // --seed: every random choice derives from it.
 inline CLI::Option* AddSeedOption(CLI::App* sub, uint64_t* seed) {
   return sub->add_option("--seed", *seed, "random seed (the same seed gives the same result)")

@@ -21,6 +21,7 @@ class SimulateCommand : public Command {
     AddSceneOptions(sub_, &preset_, &scene_file_);
     AddOutputOption(sub_, &output_, "dataset folder to write (replaced if it exists)");
     sub_->add_flag("--print-scene", print_scene_, "print the resolved scene as JSON (a starting point for a scene file) and exit");
+    AddForceFlag(sub_, &force_);
     AddSeedOption(sub_, &seed_);
     // The same bounds as the scene file's keys (simulation/scene_config.cc).
     sub_->add_option("--parts", parts_, "number of parts (overrides the scene)")->check(IntegerIn(0, 100000));
@@ -45,6 +46,7 @@ class SimulateCommand : public Command {
     if (output_.empty()) ThrowInputError("simulate: --output is required (the dataset folder to write)");
     options.seed = seed_;
     options.output_dir = output_;
+    options.replace_any_folder = force_;
     options.calibration_images = !no_calibration_ && options.scene.board.poses > 0;
     options.marker_images = !no_markers_;
     const auto start = std::chrono::steady_clock::now();
@@ -67,6 +69,7 @@ class SimulateCommand : public Command {
   int shots_ = 0;
   int calib_poses_ = -1;
   bool no_calibration_ = false;
+  bool force_ = false;
   bool no_markers_ = false;
   bool print_scene_ = false;
 };

@@ -1,9 +1,13 @@
 #include "flatscan/io/atomic_output.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
+#include <mutex>
+#include <vector>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -37,10 +41,53 @@ void RequireFolder(const fs::path& path, const fs::path& folder) {
     ThrowInputError("cannot write '{}': '{}' is not a folder", path.string(), folder.string());
 }
 
-// ".<stem>.tmp-<pid>-<n><extensions>" in the folder of `path`. Everything from the first
-// dot of the file name (ignoring a leading one) is kept at the end, so that writers
-// which pick the format from the extension (cv::imwrite, cv::FileStorage, also with
-// ".yml.gz") see the same extension as for the final name.
+void RemoveQuietly(const fs::path& path) {
+  std::error_code ignored;
+  fs::remove(path, ignored);
+}
+
+bool WrittenByFlatscan(const fs::path& dir) {
+  std::error_code ec;
+  return fs::is_regular_file(dir / StagedDirectory::kOutputMarker, ec);
+}
+
+// An existing `final` must be a folder flatscan wrote, unless `replace_any`.
+void CheckReplaceable(const fs::path& final_dir, bool replace_any) {
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(final_dir, ec);
+  if (!fs::exists(status)) return;
+  if (status.type() != fs::file_type::directory)
+    ThrowInputError("cannot replace '{}': it exists and is not a folder", final_dir.string());
+  if (!replace_any && !WrittenByFlatscan(final_dir))
+    ThrowInputError("cannot replace '{}': the folder exists and flatscan did not write it (it has no {}); "
+                    "choose another output folder, or give --force to replace it",
+                    final_dir.string(), StagedDirectory::kOutputMarker);
+}
+
+// "<name>.partial-<pid>[-n][.old]" folders of processes that no longer run (killed
+// before they could clean up), holding the marker.
+void RemoveStalePartials(const fs::path& parent, const std::string& name) {
+  const std::string prefix = name + ".partial-";
+  std::error_code ec;
+  for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string entry = it->path().filename().string();
+    if (!entry.starts_with(prefix)) continue;
+    const long pid = std::strtol(entry.c_str() + prefix.size(), nullptr, 10);
+    const bool running = pid > 0 && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM);
+    if (running || !WrittenByFlatscan(it->path())) continue;
+    std::error_code ignored;
+    fs::remove_all(it->path(), ignored);
+  }
+}
+
+std::mutex g_cleanup_mutex;
+std::vector<fs::path>& CleanupList() {
+  static std::vector<fs::path> paths;
+  return paths;
+}
+
+}  // namespace
+
 fs::path TemporaryPathFor(const fs::path& path) {
   const std::string name = path.filename().string();
   const size_t dot = name.find('.', 1);
@@ -51,13 +98,6 @@ fs::path TemporaryPathFor(const fs::path& path) {
                   static_cast<long>(::getpid()), g_temp_counter.fetch_add(1), extensions);
   return path.parent_path() / temp_name;
 }
-
-void RemoveQuietly(const fs::path& path) {
-  std::error_code ignored;
-  fs::remove(path, ignored);
-}
-
-}  // namespace
 
 void WriteFileAtomically(const fs::path& path,
                          const std::function<void(const fs::path& tmp_path)>& write) {
@@ -79,6 +119,7 @@ void WriteFileAtomically(const fs::path& path,
   ::close(fd);
   RemoveQuietly(tmp);
 
+  RegisterForCleanup(tmp);
   try {
     write(tmp);
     std::error_code ec;
@@ -88,8 +129,10 @@ void WriteFileAtomically(const fs::path& path,
     if (ec) ThrowInputError("cannot write '{}': {}", path.string(), ec.message());
   } catch (...) {
     RemoveQuietly(tmp);
+    UnregisterForCleanup(tmp);
     throw;
   }
+  UnregisterForCleanup(tmp);
 }
 
 void WriteTextFileAtomically(const fs::path& path, const std::string& text) {
@@ -105,12 +148,13 @@ void WriteTextFileAtomically(const fs::path& path, const std::string& text) {
   });
 }
 
-StagedDirectory::StagedDirectory(fs::path final_dir) : final_(std::move(final_dir)) {
+StagedDirectory::StagedDirectory(fs::path final_dir, bool replace_any) : final_(std::move(final_dir)) {
   // "out/" names the folder "out".
   if (!final_.has_filename() && final_.has_parent_path()) final_ = final_.parent_path();
   const std::string name = final_.filename().string();
   if (name.empty() || name == "." || name == "..")
     ThrowInputError("cannot create folder '{}': not a folder name", final_.string());
+  CheckReplaceable(final_, replace_any);
 
   const fs::path parent = FolderOf(final_);
   std::error_code ec;
@@ -123,6 +167,7 @@ StagedDirectory::StagedDirectory(fs::path final_dir) : final_(std::move(final_di
                     parent.string(),
                     ec ? ec.message() : std::make_error_code(std::errc::not_a_directory).message());
   }
+  RemoveStalePartials(parent, name);
 
   // "<final>.partial-<pid>"; a suffix is added only if that is taken (another staging
   // folder of this process, or a left-over of a crashed process with the same pid).
@@ -139,12 +184,16 @@ StagedDirectory::StagedDirectory(fs::path final_dir) : final_(std::move(final_di
     if (attempt >= 1000)
       ThrowInputError("cannot create folder '{}': too many staging folders", final_.string());
   }
+  RegisterForCleanup(staging_);
+  WriteTextFileAtomically(staging_ / kOutputMarker,
+                          "Written by flatscan: `-o` may replace this folder.\n");
 }
 
 StagedDirectory::~StagedDirectory() {
   if (committed_ || staging_.empty()) return;
   std::error_code ignored;
   fs::remove_all(staging_, ignored);
+  UnregisterForCleanup(staging_);
 }
 
 void StagedDirectory::Commit() {
@@ -173,11 +222,31 @@ void StagedDirectory::Commit() {
     ThrowInputError("cannot create folder '{}': {}", final_.string(), reason);
   }
   committed_ = true;
+  UnregisterForCleanup(staging_);
   staging_ = final_;  // path() now names the committed folder
   if (!old.empty()) {
     std::error_code ignored;
     fs::remove_all(old, ignored);
   }
+}
+
+void RegisterForCleanup(const fs::path& path) {
+  const std::lock_guard<std::mutex> lock(g_cleanup_mutex);
+  CleanupList().push_back(path);
+}
+
+void UnregisterForCleanup(const fs::path& path) {
+  const std::lock_guard<std::mutex> lock(g_cleanup_mutex);
+  std::erase(CleanupList(), path);
+}
+
+void RemoveRegisteredForCleanup() {
+  const std::lock_guard<std::mutex> lock(g_cleanup_mutex);
+  for (const fs::path& path : CleanupList()) {
+    std::error_code ignored;
+    fs::remove_all(path, ignored);
+  }
+  CleanupList().clear();
 }
 
 }  // namespace flatscan

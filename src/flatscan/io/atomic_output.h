@@ -14,16 +14,29 @@ namespace flatscan {
 void WriteFileAtomically(const std::filesystem::path& path,
                          const std::function<void(const std::filesystem::path& tmp_path)>& write);
 
+// ".<stem>.tmp-<pid>-<n><extensions>" in the folder of `path`. Everything from the first
+// dot of the file name (ignoring a leading one) is kept at the end, so that writers
+// which pick the format from the extension (cv::imwrite, cv::FileStorage, also with
+// ".yml.gz") see the same extension as for the final name.
+std::filesystem::path TemporaryPathFor(const std::filesystem::path& path);
+
 // Writes `text` to `path` atomically.
 void WriteTextFileAtomically(const std::filesystem::path& path, const std::string& text);
 
-// A folder under construction. Create() makes "<final>.partial-<pid>" (throws
-// InputError naming the path if its parent cannot be created or written); Commit()
-// replaces `final` with it. If destroyed without Commit() the partial folder is
-// removed, so an interrupted run leaves nothing that looks complete.
+// A folder under construction. The constructor makes "<final>.partial-<pid>" with the
+// marker file kOutputMarker in it (throws InputError naming the path if its parent cannot
+// be created or written); Commit() replaces `final` with it. If destroyed without
+// Commit() the partial folder is removed, so an interrupted run leaves nothing that looks
+// complete; a process killed outright leaves its partial folder, which the next
+// StagedDirectory of the same final folder removes (its pid is gone).
+//
+// An existing `final` is replaced only if flatscan wrote it (it holds kOutputMarker) or
+// with `replace_any` (the --force of simulate, evaluate and demo); else, and when `final`
+// is not a folder, the constructor throws, before any work.
 class StagedDirectory {
  public:
-  explicit StagedDirectory(std::filesystem::path final_dir);
+  static constexpr const char* kOutputMarker = ".flatscan-output";
+  explicit StagedDirectory(std::filesystem::path final_dir, bool replace_any = false);
   ~StagedDirectory();
   StagedDirectory(const StagedDirectory&) = delete;
   StagedDirectory& operator=(const StagedDirectory&) = delete;
@@ -37,5 +50,12 @@ class StagedDirectory {
   std::filesystem::path staging_;
   bool committed_ = false;
 };
+
+// Paths removed if the process is interrupted (SIGINT, SIGTERM) before it unregisters
+// them: staging folders and temporaries. The command-line layer calls
+// RemoveRegisteredForCleanup from its signal-handling thread.
+void RegisterForCleanup(const std::filesystem::path& path);
+void UnregisterForCleanup(const std::filesystem::path& path);
+void RemoveRegisteredForCleanup();
 
 }  // namespace flatscan

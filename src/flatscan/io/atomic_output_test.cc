@@ -211,20 +211,53 @@ TEST_F(AtomicOutput, StagedDirectoryCommitCreatesParentsAndFinal) {
   EXPECT_EQ(Entries(dir_ / "a" / "b"), std::set<std::string>{"run"});
 }
 
-TEST_F(AtomicOutput, StagedDirectoryCommitReplacesExistingFolder) {
+TEST_F(AtomicOutput, StagedDirectoryCommitReplacesAFolderItWrote) {
   const fs::path final_dir = dir_ / "run";
-  fs::create_directories(final_dir / "old_sub");
-  WriteTextFileAtomically(final_dir / "old.txt", "old");
-  WriteTextFileAtomically(final_dir / "report.txt", "old report");
+  {
+    StagedDirectory first(final_dir);
+    fs::create_directories(first.path() / "old_sub");
+    WriteTextFileAtomically(first.path() / "report.txt", "old report");
+    first.Commit();
+  }
   {
     StagedDirectory staged(final_dir);
     WriteTextFileAtomically(staged.path() / "report.txt", "new report");
     EXPECT_EQ(ReadText(final_dir / "report.txt"), "old report");  // untouched until Commit
     staged.Commit();
   }
-  EXPECT_EQ(Entries(final_dir), std::set<std::string>{"report.txt"});
+  EXPECT_EQ(Entries(final_dir), (std::set<std::string>{".flatscan-output", "report.txt"}));
   EXPECT_EQ(ReadText(final_dir / "report.txt"), "new report");
   EXPECT_EQ(Entries(dir_), std::set<std::string>{"run"});
+}
+
+// Before: `simulate -o` and `evaluate -o` deleted any folder (one held someone's thesis).
+TEST_F(AtomicOutput, StagedDirectoryRefusesAFolderItDidNotWriteUnlessForced) {
+  const fs::path final_dir = dir_ / "thesis";
+  fs::create_directories(final_dir);
+  WriteTextFileAtomically(final_dir / "chapter1.tex", "years of work");
+  EXPECT_EQ(InputErrorOf([&] { StagedDirectory staged(final_dir); }),
+            fmt::format("cannot replace '{}': the folder exists and flatscan did not write it (it has no "
+                        ".flatscan-output); choose another output folder, or give --force to replace it",
+                        final_dir.string()));
+  EXPECT_EQ(ReadText(final_dir / "chapter1.tex"), "years of work");
+  EXPECT_EQ(Entries(dir_), std::set<std::string>{"thesis"});  // no staging folder either
+  {
+    StagedDirectory staged(final_dir, /*replace_any=*/true);
+    staged.Commit();
+  }
+  EXPECT_EQ(Entries(final_dir), std::set<std::string>{".flatscan-output"});
+}
+
+// A process killed outright leaves its staging folder; the next run removes it.
+TEST_F(AtomicOutput, StagedDirectoryRemovesStalePartialsOfDeadProcesses) {
+  const fs::path stale = dir_ / "run.partial-999999999";  // above the kernel's pid_max
+  fs::create_directories(stale);
+  WriteTextFileAtomically(stale / StagedDirectory::kOutputMarker, "");
+  const fs::path foreign = dir_ / "run.partial-999999998";  // not ours: kept
+  fs::create_directories(foreign);
+  StagedDirectory staged(dir_ / "run");
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(foreign));
 }
 
 TEST_F(AtomicOutput, StagedDirectoriesOfSameFinalDoNotCollide) {
@@ -259,18 +292,13 @@ TEST_F(AtomicOutput, StagedDirectoryUnderRegularFileIsInputErrorNamingPath) {
   EXPECT_EQ(Entries(dir_), std::set<std::string>{"plain.txt"});
 }
 
-TEST_F(AtomicOutput, StagedDirectoryCommitRefusesToReplaceFile) {
+// Before: `evaluate -o <existing file>` failed only after the whole run.
+TEST_F(AtomicOutput, StagedDirectoryRefusesToReplaceAFileBeforeAnyWork) {
   const fs::path final_dir = dir_ / "run";
   WriteTextFileAtomically(final_dir, "a file where the folder should go");
-  fs::path staging;
-  {
-    StagedDirectory staged(final_dir);
-    staging = staged.path();
-    EXPECT_EQ(InputErrorOf([&] { staged.Commit(); }),
-              fmt::format("cannot replace '{}': it exists and is not a folder",
-                          final_dir.string()));
-  }
-  EXPECT_FALSE(fs::exists(staging));
+  EXPECT_EQ(InputErrorOf([&] { StagedDirectory staged(final_dir, /*replace_any=*/true); }),
+            fmt::format("cannot replace '{}': it exists and is not a folder", final_dir.string()));
+  EXPECT_EQ(Entries(dir_), std::set<std::string>{"run"});
   EXPECT_EQ(ReadText(final_dir), "a file where the folder should go");
 }
 

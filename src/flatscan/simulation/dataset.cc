@@ -219,7 +219,7 @@ SimulateSummary SimulateDataset(const SimulateOptions& options, const std::funct
   std::vector<SimulatedPart> parts;
   for (int i = 0; i < st.scene.dataset.parts; ++i) parts.push_back(SampleSimulatedPart(st, i, rng));
 
-  StagedDirectory dir(options.output_dir);
+  StagedDirectory dir(options.output_dir, options.replace_any_folder);
   SimulateSummary summary;
   summary.output_dir = options.output_dir;
   const std::filesystem::path root = dir.path();

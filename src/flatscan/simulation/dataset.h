@@ -29,6 +29,7 @@ struct SimulateOptions {
   SceneConfig scene;
   uint64_t seed = 1;
   std::filesystem::path output_dir;
+  bool replace_any_folder = false;  // replace output_dir also if flatscan did not write it
   bool calibration_images = true;
   bool marker_images = true;
 };

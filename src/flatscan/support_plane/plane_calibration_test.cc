@@ -341,6 +341,17 @@ TEST(PlaneCalibration, CalibratePlaneCommand) {
     EXPECT_FALSE(std::filesystem::exists(path("out.yml"))) << b.args;
     EXPECT_FALSE(std::filesystem::exists(path("out.json"))) << b.args;
   }
+  // Before: -o onto its own --rig replaced the rig; a --json into a missing folder failed
+  // only after the plane file was written.
+  const std::string rig_bytes = testing::ReadFileBytes(path("rig.yml"));
+  r = RunFlatscan(base + fmt::format(" -o '{}'", path("rig.yml")));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--output '{}': is the input of --rig", path("rig.yml"))), std::string::npos) << r.err;
+  EXPECT_EQ(testing::ReadFileBytes(path("rig.yml")), rig_bytes);
+  r = RunFlatscan(base + fmt::format(" -o '{}' --json /missing/p.json", path("out.yml")));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--json '/missing/p.json': the folder '/missing' does not exist"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(path("out.yml")));
 }
 
 }  // namespace
