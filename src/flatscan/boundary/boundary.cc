@@ -340,6 +340,11 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
   return result;
 }
 
+namespace {
+constexpr double kMaxRowsPerSegment = 64;
+constexpr double kMaxMappedRow = 1e8;  // well inside int
+}  // namespace
+
 std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMap& map,
                                    std::vector<std::vector<Eigen::Vector2d>>* mapped_chains) {
   std::vector<RowCrossing> out;
@@ -358,8 +363,14 @@ std::vector<RowCrossing> CrossRows(const BoundaryResult& boundary, const PointMa
       const int j = (i + 1) % n;
       const Eigen::Vector2d& a = mapped[i];
       const Eigen::Vector2d& b = mapped[j];
-      // A point the map cannot take (beyond the lens model's fold) cuts its segments.
+      // A point the map cannot take (beyond the lens model's fold) cuts its segments,
+      // and so does a map that stretches a segment of neighbouring chain points (about a
+      // pixel apart) over more than kMaxRowsPerSegment rows or beyond int: a degenerate
+      // rectification, which would otherwise add one crossing per row without bound.
       if (a.y() == b.y() || !a.allFinite() || !b.allFinite()) continue;
+      if (std::abs(b.y() - a.y()) > kMaxRowsPerSegment || std::abs(a.y()) > kMaxMappedRow ||
+          std::abs(b.y()) > kMaxMappedRow)
+        continue;
       const int r0 = static_cast<int>(std::floor(std::min(a.y(), b.y()))) + 1;
       const int r1 = static_cast<int>(std::floor(std::max(a.y(), b.y())));
       if (r1 < r0) continue;

@@ -125,6 +125,25 @@ TEST(Boundary, CrossRowsInterpolatesTheChainAtEveryRow) {
   EXPECT_EQ(shifted_count, 2 * (58 - 23 + 1));
 }
 
+// Before: a map that stretched the rows without bound (a rig with its baseline along z)
+// added one crossing per row between two chain points: 16.8 GB, and a cast of huge or
+// NaN y to int.
+TEST(Boundary, CrossRowsStaysBoundedUnderADegenerateMap) {
+  const Eigen::Vector2d c(40.0, 40.0);
+  const cv::Mat1b img = RenderShape(
+      80, 80, [&](const Eigen::Vector2d& p) { return (p - c).norm() - 20.0; }, 1.0, 0.0, 1, {{19, 19}, {61, 61}});
+  const BoundaryResult r = DetectBoundary(img);
+  const size_t points = r.points.size();
+  for (const double stretch : {1e3, 1e9, 1e300}) {
+    const std::vector<RowCrossing> rows =
+        CrossRows(r, [&](const Eigen::Vector2d& p) { return Eigen::Vector2d(p.x(), stretch * (p.y() - 40)); });
+    EXPECT_LE(rows.size(), 2 * points) << stretch;  // a few segments at most, never one per row
+  }
+  const std::vector<RowCrossing> nan_rows =
+      CrossRows(r, [](const Eigen::Vector2d& p) { return Eigen::Vector2d(p.x(), std::nan("")); });
+  EXPECT_TRUE(nan_rows.empty());
+}
+
 TEST(Boundary, FusedCannyGivesCvCannysEdgeSet) {
   // Random blurred shapes and noise, with a constant 3 px frame so that cv::Canny's
   // border handling plays no part.

@@ -52,8 +52,9 @@ class CalibratePlaneCommand : public Command {
     out.Declare("--output", output_);
     out.Declare("--json", json_, OutputFiles::kStdoutAllowed);
     const StereoRig rig = ReadRigFile(rig_);
-    const cv::Mat1b left = ReadGreyImage(left_);
-    const cv::Mat1b right = ReadGreyImage(right_);
+    // The header's size is checked before decoding (CalibratePlane checks it again).
+    const cv::Mat1b left = ReadGreyImage(left_, {rig.left.width, rig.left.height});
+    const cv::Mat1b right = ReadGreyImage(right_, {rig.right.width, rig.right.height});
     PlaneCalibrationOptions options;
     options.centre_correction = !no_correction_;
     options.left_name = left_;

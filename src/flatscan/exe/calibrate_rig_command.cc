@@ -64,7 +64,7 @@ class CalibrateRigCommand : public Command {
     options.board.rows = rows;
     options.board.square_mm = square_mm_;
     options.model = ParseDistortionModel(model_);
-    options.progress = [](const std::string& s) { spdlog::debug("{}", s); };
+    options.progress = [](const std::string& s) { spdlog::info("{}", s); };
 
     const std::vector<ImagePairFiles> pairs = PairImagesByName(left_, right_);
     std::vector<OutputFiles::Named> inputs;

@@ -119,6 +119,8 @@ class InspectCommand : public Command {
       ThrowInputError("{} '{}': exists and is not a folder (the overlays go into a folder)", option, dir);
   }
 
+  static cv::Size SizeOf(const Camera& camera) { return {camera.width, camera.height}; }
+
   // Stdout carries the JSON when --json is "-"; the summary then goes to stderr.
   std::ostream& Text() const { return json_ == "-" ? std::cerr : std::cout; }
 
@@ -133,8 +135,8 @@ class InspectCommand : public Command {
     std::optional<InspectionResult> result;
     InspectionRecord record;
     try {
-      l = ReadGreyImage(left_);
-      r = ReadGreyImage(right_);
+      l = ReadGreyImage(left_, SizeOf(rig.left));
+      r = ReadGreyImage(right_, SizeOf(rig.right));
       result = InspectPart(rig, plane, l, r, params_, left_, right_);
       record = MeasuredRecord(*result, params_, spec_, inputs);
     } catch (const InputError& e) {
@@ -166,7 +168,7 @@ class InspectCommand : public Command {
       inputs.right_file = p.right;
       InspectionRecord record;
       try {
-        const cv::Mat1b l = ReadGreyImage(p.left), r = ReadGreyImage(p.right);
+        const cv::Mat1b l = ReadGreyImage(p.left, SizeOf(rig.left)), r = ReadGreyImage(p.right, SizeOf(rig.right));
         const InspectionResult result = InspectPart(rig, plane, l, r, params_, p.left, p.right);
         record = MeasuredRecord(result, params_, spec_, inputs);
         (record.judgement.pass() ? pass : fail)++;

@@ -1,9 +1,16 @@
 // `flatscan inspect` end to end: exit codes, the JSON record, batches, and the checks
 // of the plane file against the rig (docs/conventions.md, "Plane file").
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -257,6 +264,53 @@ TEST_F(InspectOnePart, BatchIdsBecomeSafeFolderNames) {
   EXPECT_NE(r.err.find("--ply: a PLY is written for a single pair (--left, --right), not for a batch (--pairs)"),
             std::string::npos)
       << r.err;
+}
+
+// Peak resident size (KiB) of `flatscan args`, and its exit code.
+std::pair<long, int> PeakKib(const std::string& args) {
+  const std::string command = std::string("exec ") + FLATSCAN_BINARY + " " + args + " >/dev/null 2>&1";
+  std::vector<std::string> argv_text = {"/bin/sh", "-c", command};
+  std::vector<char*> argv;
+  for (std::string& a : argv_text) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, argv.data(), environ) != 0) return {-1, -1};
+  int status = 0;
+  rusage usage{};
+  if (wait4(pid, &status, 0, &usage) != pid || !WIFEXITED(status)) return {-1, -1};
+  return {usage.ru_maxrss, WEXITSTATUS(status)};
+}
+
+// Issue 13: a process of this tool never needs more than about 1 GB, whatever the input.
+// Measured at --threads 2 (the station's machine); the sanitizer's shadow memory makes
+// the figure meaningless there, so the check skips itself in that build.
+TEST_F(InspectOnePart, PeakMemoryStaysUnderOneGigabyteAtTwoThreads) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "peak memory is not meaningful under AddressSanitizer";
+#endif
+  const std::string inspect = fmt::format("--threads 2 inspect --rig {} --plane {} --thickness {} --tolerance 1 ",
+                                          (Data() / "rig.yml").string(), (Data() / "plane_true.yml").string(),
+                                          Thickness());
+  std::string huge = testing::ReadFileBytes(Left());
+  for (int i : {16, 20}) huge.replace(i, 4, std::string("\x00\x01\x86\xA0", 4));  // 100000 x 100000
+  std::ofstream(Data() / "huge.png", std::ios::binary) << huge;
+  const std::vector<std::pair<std::string, int>> runs = {
+      {inspect + fmt::format("--left {} --right {}", Left().string(), Right().string()), 0},
+      {inspect + fmt::format("--left {} --right {} --blur 5", Left().string(), Right().string()), -1},
+      {inspect + fmt::format("--left {} --right {}", (Data() / "huge.png").string(), Right().string()), 2},
+      {fmt::format("--threads 2 simulate --preset paper --parts 1 --no-calibration --no-markers -q -o {}",
+                   (Data() / "sim_memory").string()),
+       0},
+  };
+  for (const auto& [args, exit_code] : runs) {
+    const auto [kib, code] = PeakKib(args);
+    if (exit_code >= 0) {
+      EXPECT_EQ(code, exit_code) << args;
+    }
+    std::printf("peak %.0f MB: %s\n", kib / 1024.0, args.c_str());
+    EXPECT_GT(kib, 0) << args;
+    EXPECT_LT(kib, 1024 * 1024) << args;
+  }
 }
 
 }  // namespace

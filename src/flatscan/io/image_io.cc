@@ -1,6 +1,13 @@
 #include "flatscan/io/image_io.h"
 
+#include <algorithm>
+#include <climits>
+#include <cstdint>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -11,11 +18,92 @@
 
 namespace flatscan {
 
-cv::Mat1b ReadGreyImage(const std::string& path) {
+namespace {
+
+uint32_t BigEndian(const unsigned char* p, int bytes) {
+  uint32_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  return v;
+}
+uint32_t LittleEndian(const unsigned char* p, int bytes) {
+  uint32_t v = 0;
+  for (int i = bytes - 1; i >= 0; --i) v = (v << 8) | p[i];
+  return v;
+}
+
+// JPEG: the first start-of-frame marker (SOF0..SOF15 but DHT C4, JPG C8, DAC CC) holds
+// height and width after its length and precision.
+std::optional<cv::Size> JpegSize(std::ifstream& in) {
+  in.seekg(2);
+  unsigned char m[9];
+  while (in.read(reinterpret_cast<char*>(m), 4)) {
+    if (m[0] != 0xFF) return std::nullopt;
+    const int marker = m[1];
+    const uint32_t length = BigEndian(m + 2, 2);
+    if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC) {
+      if (!in.read(reinterpret_cast<char*>(m), 5)) return std::nullopt;
+      return cv::Size(static_cast<int>(BigEndian(m + 3, 2)), static_cast<int>(BigEndian(m + 1, 2)));
+    }
+    if (length < 2) return std::nullopt;
+    in.seekg(length - 2, std::ios::cur);
+  }
+  return std::nullopt;
+}
+
+// PGM/PPM (P2, P3, P5, P6): magic, then width and height as decimal text (comments skipped).
+std::optional<cv::Size> NetpbmSize(std::ifstream& in) {
+  in.seekg(2);
+  long long dims[2];
+  for (long long& d : dims) {
+    in >> std::ws;
+    while (in.peek() == '#') {
+      std::string comment;
+      std::getline(in, comment);
+      in >> std::ws;
+    }
+    if (!(in >> d) || d <= 0 || d > (1LL << 31) - 1) return std::nullopt;
+  }
+  return cv::Size(static_cast<int>(dims[0]), static_cast<int>(dims[1]));
+}
+
+}  // namespace
+
+std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char h[26] = {};
+  if (!in.read(reinterpret_cast<char*>(h), sizeof(h))) in.clear();
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (std::equal(kPng, kPng + 8, h) && std::equal(h + 12, h + 16, "IHDR"))
+    return cv::Size(static_cast<int>(std::min<uint32_t>(BigEndian(h + 16, 4), INT32_MAX)),
+                    static_cast<int>(std::min<uint32_t>(BigEndian(h + 20, 4), INT32_MAX)));
+  if (h[0] == 'B' && h[1] == 'M') {  // BITMAPINFOHEADER: signed width, height (negative: top-down)
+    const int32_t w = static_cast<int32_t>(LittleEndian(h + 18, 4)), hh = static_cast<int32_t>(LittleEndian(h + 22, 4));
+    return cv::Size(std::abs(w), hh == INT32_MIN ? INT32_MAX : std::abs(hh));
+  }
+  if (h[0] == 0xFF && h[1] == 0xD8) return JpegSize(in);
+  if (h[0] == 'P' && (h[1] == '2' || h[1] == '3' || h[1] == '5' || h[1] == '6')) return NetpbmSize(in);
+  return std::nullopt;
+}
+
+cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) ThrowInputError("{}: no such file", path);
   if (std::filesystem::is_directory(path, ec)) ThrowInputError("{}: is a folder, not an image", path);
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (const std::optional<cv::Size> header = ReadImageHeaderSize(path)) {
+    if (static_cast<long long>(header->width) * header->height > kMaxImagePixels)
+      ThrowInputError("{}: image is {}x{} px (from its header), more than flatscan's limit of {} million pixels",
+                      path, header->width, header->height, kMaxImagePixels / 1'000'000);
+    if (!expected.empty() && *header != expected)
+      ThrowInputError("{}: image is {}x{} but the rig was calibrated for {}x{}: use the images of the calibrated "
+                      "cameras",
+                      path, header->width, header->height, expected.width, expected.height);
+  }
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    ThrowInputError("{}: cannot read image ({})", path, e.msg);
+  }
   if (image.empty())
     ThrowInputError("{}: cannot read image (expected an 8-bit grey PNG, JPEG, BMP, TIFF or PGM file)", path);
   if (image.depth() != CV_8U && image.depth() != CV_16U)

@@ -23,6 +23,7 @@ namespace {
 
 constexpr double kRotationTolerance = 1e-6;
 constexpr double kUnitNormalTolerance = 1e-6;
+constexpr double kMinBaselineMm = 1.0;
 constexpr const char* kExpectedFileStorage = "expected an OpenCV FileStorage YAML/XML file";
 
 std::string ShapeOf(const cv::Mat& m) { return fmt::format("{}x{}", m.rows, m.cols); }
@@ -189,6 +190,28 @@ Eigen::Vector3d ReadTranslation(const KeyReader& in, const char* key, const char
   return t;
 }
 
+// The matching runs along rectified rows, which cv::stereoRectify lays along the
+// baseline: the baseline must be at least 1 mm and run across the views (more along x
+// than along y or the viewing axis z of camera 1). Else stereoRectify returns a
+// degenerate rectification (a baseline along z sends the rectified rows to infinity:
+// 16.8 GB of row crossings for T = [0, 0, 60]).
+void CheckBaseline(const KeyReader& in, const StereoRig& rig) {
+  const Eigen::Vector3d c2 = rig.cam2_from_cam1.Inverse().OriginOfSource();  // camera 2's centre
+  const std::string where = fmt::format("camera 2's centre is at ({:.4g}, {:.4g}, {:.4g}) mm in camera 1's frame",
+                                        c2.x(), c2.y(), c2.z());
+  if (c2.stableNorm() < kMinBaselineMm)
+    in.Fail("T", "gives a baseline of {:.3g} mm ({}); a stereo rig needs at least {} mm (T is in mm)", c2.stableNorm(),
+            where, kMinBaselineMm);
+  if (std::abs(c2.z()) >= std::abs(c2.x()))
+    in.Fail("T", "puts the baseline along the viewing direction ({}): the cameras must stand side by side, the "
+            "baseline across their views",
+            where);
+  if (std::abs(c2.y()) >= std::abs(c2.x()))
+    in.Fail("T", "gives a vertical baseline ({}): flatscan matches along image rows, so the cameras must stand "
+            "side by side along the image x axis (or rotate both images by 90 degrees)",
+            where);
+}
+
 constexpr const char* kMeaningM1 = "3x3 camera matrix of camera 1 (left), pixels";
 constexpr const char* kMeaningM2 = "3x3 camera matrix of camera 2 (right), pixels";
 constexpr const char* kMeaningD1 =
@@ -223,6 +246,7 @@ StereoRig ReadRigCore(const KeyReader& intrinsics, const KeyReader& extrinsics, 
   rig.right = Camera::FromOpenCv(m2, d2, width, height);
   rig.cam2_from_cam1.rotation = ReadRotation(extrinsics, "R", kMeaningR);
   rig.cam2_from_cam1.translation = ReadTranslation(extrinsics, "T", kMeaningT);
+  CheckBaseline(extrinsics, rig);
   return rig;
 }
 

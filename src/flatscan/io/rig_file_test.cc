@@ -387,6 +387,26 @@ TEST_F(RigFile, ZeroTranslation) {
             Expected("key 'T' must be non-zero (the baseline), found (0, 0, 0)"));
 }
 
+// Before: T = [0, 0, 60] took 16.8 GB and 103 s; a vertical or 1e-300 mm baseline gave an
+// internal check or an OpenCV assertion.
+TEST_F(RigFile, DegenerateBaselines) {
+  const auto with_t = [&](const Eigen::Vector3d& c2) {  // camera 2's centre in camera 1's frame, R = I
+    return ReadError(RigKeys(rig_, false)
+                         .Set("R", ToCv(Eigen::Matrix3d::Identity()))
+                         .Set("T", ToCv(Eigen::Vector3d(-c2))));
+  };
+  EXPECT_EQ(with_t({0, 0, 60}), Expected("key 'T' puts the baseline along the viewing direction (camera 2's centre "
+                                         "is at (0, 0, 60) mm in camera 1's frame): the cameras must stand side "
+                                         "by side, the baseline across their views"));
+  EXPECT_EQ(with_t({0.5, 60, 0}), Expected("key 'T' gives a vertical baseline (camera 2's centre is at (0.5, 60, 0) "
+                                           "mm in camera 1's frame): flatscan matches along image rows, so the "
+                                           "cameras must stand side by side along the image x axis (or rotate "
+                                           "both images by 90 degrees)"));
+  EXPECT_EQ(with_t({1e-300, 0, 0}), Expected("key 'T' gives a baseline of 1e-300 mm (camera 2's centre is at "
+                                             "(1e-300, 0, 0) mm in camera 1's frame); a stereo rig needs at least "
+                                             "1 mm (T is in mm)"));
+}
+
 TEST_F(RigFile, NonFiniteValue) {
   cv::Mat t = ToCv(rig_.cam2_from_cam1.translation);
   t.at<double>(1) = std::nan("");

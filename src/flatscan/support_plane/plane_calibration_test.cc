@@ -323,7 +323,7 @@ TEST(PlaneCalibration, CalibratePlaneCommand) {
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("rig.yml"), path("R.png")),
        "rig.yml: cannot read image"},
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("L.png"), path("small.png")),
-       "small.png: image is 960x600 px but the rig is calibrated for 1920x1200 px"},
+       "small.png: image is 960x600 but the rig was calibrated for 1920x1200: use the images of the calibrated cameras"},
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("blank.png"), path("R.png")),
        "blank.png: found 0 concentric-ring markers, expected 4"},
       {fmt::format("--rig '{}' --left '{}' --right '{}'", path("rig.yml"), path("colour.png"), path("R.png")),
