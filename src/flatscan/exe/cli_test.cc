@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -154,8 +155,11 @@ TEST(Cli, RepeatedShotsShareThePartAndItsTruth) {
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "out/parts/part_000_shot_02_right.png"));
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "out/calib"));
   const std::string pairs = testing::ReadFileBytes(dir.path() / "out/pairs.csv");
-  EXPECT_EQ(pairs.substr(0, 14), "id,left,right\n");
-  EXPECT_NE(pairs.find("part_000_shot_01,parts/part_000_shot_01_left.png,parts/part_000_shot_01_right.png"), std::string::npos);
+  EXPECT_EQ(pairs.substr(0, 24), "id,left,right,thickness\n");
+  EXPECT_NE(pairs.find(fmt::format("part_000_shot_01,parts/part_000_shot_01_left.png,parts/part_000_shot_01_right.png,{}\n",
+                                   truth["parts"][0]["side_height_mm"].get<double>())),
+            std::string::npos)
+      << pairs;
 }
 
 TEST(Cli, BadSimulateInputExitsTwoWithoutOutput) {

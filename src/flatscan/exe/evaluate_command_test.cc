@@ -62,7 +62,9 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   ASSERT_EQ(worst["parts"].size(), 1u);
   const nlohmann::json& worst_part = worst["parts"][0];
   const std::string id = worst_part["id"];
-  EXPECT_EQ(testing::ReadFileBytes(out / "worst/pairs.csv"), fmt::format("id,left,right\n{0},{0}_left.png,{0}_right.png\n", id));
+  EXPECT_EQ(testing::ReadFileBytes(out / "worst/pairs.csv"),
+            fmt::format("id,left,right,thickness\n{0},{0}_left.png,{0}_right.png,{1}\n", id,
+                        worst_part["side_height_mm"].get<double>()));
   const auto again = RunFlatscan(fmt::format(
       "inspect --rig {0}/station/rig_calibrated.yml --plane {0}/station/plane_calibrated.yml --left {0}/worst/{1}_left.png "
       "--right {0}/worst/{1}_right.png --thickness {2} --tolerance 0.1 --guard-band 1 --json {0}/again.json",

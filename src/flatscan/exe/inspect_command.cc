@@ -1,4 +1,6 @@
+#include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <optional>
 #include <set>
@@ -6,7 +8,9 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
 
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/options.h"
@@ -18,6 +22,7 @@
 #include "flatscan/io/pairs_csv.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/ordered_parallel.h"
 #include "flatscan/util/sha256.h"
 
 namespace flatscan {
@@ -36,12 +41,16 @@ class InspectCommand : public Command {
     sub_->add_option("--plane", plane_, "support plane file (from calibrate-plane)")->required();
     auto* left = sub_->add_option("--left", left_, "left image");
     sub_->add_option("--right", right_, "right image")->needs(left);
-    sub_->add_option("--pairs", pairs_, "CSV id,left,right: measure every pair (paths relative to the CSV)")->excludes(left);
-    Fills(sub_->add_option("--thickness", params_.thickness_mm,
-                           "height of the part's side face, mm: the sheet thickness (plus the wall height for folded walls)")
-              ->required()
-              ->check(RealIn(0, 5)),
-          "thickness_mm");
+    sub_->add_option("--pairs", pairs_,
+                     "CSV (RFC 4180) with the columns id,left,right and optionally thickness (mm): measure every pair "
+                     "(paths relative to the CSV)")
+        ->excludes(left);
+    thickness_ = Fills(sub_->add_option("--thickness", params_.thickness_mm,
+                                        "height of the part's side face, mm: the sheet thickness (plus the wall "
+                                        "height for folded walls); with --pairs, for the pairs without a thickness "
+                                        "column")
+                           ->check(RealIn(0, 5)),
+                       "thickness_mm");
     Fills(AddToleranceOption(sub_, &spec_.tolerance_mm)->required(), "tolerance_mm");
     Fills(sub_->add_option("--guard-band", spec_.guard_band_mm,
                            "measurement uncertainty U, mm (e.g. from `flatscan evaluate`): a flatness within U of the "
@@ -51,7 +60,12 @@ class InspectCommand : public Command {
           "guard_band_mm");
     sub_->add_option("--json", json_, "JSON record (batch: one JSON line per part, then a summary line)");
     sub_->add_option("--ply", ply_, "PLY of the valid 3D boundary points with their heights (single pair)");
-    sub_->add_option("--overlay", overlay_, "folder for left/right overlay PNGs of the points coloured by height");
+    sub_->add_option("--overlay", overlay_,
+                     "folder for left/right overlay PNGs of the points coloured by height (batch: one folder per part)");
+    sub_->add_option("--overlay-scale", overlay_scale_,
+                     "scale of the overlay images (a full-size RGB overlay of a 5 MP camera is about 6.4 MB as PNG)")
+        ->default_val(overlay_scale_)
+        ->check(RealIn(0.05, 1));
     sub_->add_flag("--allow-foreign-plane", allow_foreign_plane_,
                    "measure with a plane file calibrated with another rig file (its rig_sha256 differs): a warning, "
                    "and the JSON says so; the heights may be off by micrometres");
@@ -70,6 +84,7 @@ class InspectCommand : public Command {
     // Every input is read and every output checked before the first part is measured.
     std::vector<PairEntry> pairs;
     if (!pairs_.empty()) pairs = ReadPairsCsv(pairs_);
+    CheckThicknessGiven(pairs);
     OutputFiles out(Inputs(pairs));
     out.Declare("--json", json_, OutputFiles::kStdoutAllowed);
     if (pairs.empty()) {
@@ -94,6 +109,17 @@ class InspectCommand : public Command {
   }
 
  private:
+  // Every part needs its thickness: --thickness, or the pairs file's column for each pair.
+  void CheckThicknessGiven(const std::vector<PairEntry>& pairs) const {
+    if (thickness_->count() > 0) return;
+    if (pairs.empty()) ThrowInputError("--thickness is required (the height of the part's side face, mm)");
+    for (const PairEntry& p : pairs)
+      if (!p.thickness_mm)
+        ThrowInputError("--thickness is required: pair '{}' of {} has no thickness (give --thickness, or a "
+                        "thickness column for every pair)",
+                        p.id, pairs_);
+  }
+
   // The command's input files: the rig, the plane, the CSV and every image it names.
   std::vector<OutputFiles::Named> Inputs(const std::vector<PairEntry>& pairs) const {
     std::vector<OutputFiles::Named> inputs = {{"--rig", rig_}, {"--plane", plane_}, {"--pairs", pairs_},
@@ -154,51 +180,87 @@ class InspectCommand : public Command {
     return record.judgement.pass() ? 0 : 1;
   }
 
+  // One part of a batch: its record and, for the table, whether it was measured.
+  InspectionRecord MeasureBatchPart(const StereoRig& rig, const SupportPlane& plane, const InspectionInputs& base,
+                                    const PairEntry& p, const std::string& overlay_name) const {
+    InspectionInputs inputs = base;
+    inputs.id = p.id;
+    inputs.left_file = p.left;
+    inputs.right_file = p.right;
+    InspectionParams params = params_;
+    if (p.thickness_mm) params.thickness_mm = *p.thickness_mm;
+    try {
+      const cv::Mat1b l = ReadGreyImage(p.left, SizeOf(rig.left)), r = ReadGreyImage(p.right, SizeOf(rig.right));
+      const InspectionResult result = InspectPart(rig, plane, l, r, params, p.left, p.right);
+      if (!overlay_.empty()) WriteOverlays((std::filesystem::path(overlay_) / overlay_name).string(), l, r, result);
+      return MeasuredRecord(result, params, spec_, inputs);
+    } catch (const InputError& e) {
+      return NotMeasuredRecord(e.what(), params, spec_, inputs);
+    }
+  }
+
+  // Pairs are measured in parallel and their records streamed in input order: each JSON
+  // line is written and flushed as soon as the parts before it are, so a killed batch
+  // keeps what it measured; the file is complete when its summary line is there.
   int RunBatch(const StereoRig& rig, const SupportPlane& plane, const InspectionInputs& base,
-               const std::vector<PairEntry>& pairs, OutputFiles& out) {
-    std::string lines;
+               const std::vector<PairEntry>& pairs, OutputFiles&) {
+    std::ofstream file;
+    if (!json_.empty() && json_ != "-") {
+      file.open(json_, std::ios::binary | std::ios::trunc);
+      if (!file) ThrowInputError("--json '{}': cannot write it", json_);
+    }
+    std::ostream* lines = json_.empty() ? nullptr : json_ == "-" ? &std::cout : &file;
+    if (!overlay_.empty()) {  // made here, not by the parallel workers
+      std::error_code ec;
+      std::filesystem::create_directories(overlay_, ec);
+      if (ec) ThrowInputError("--overlay '{}': cannot create the folder: {}", overlay_, ec.message());
+    }
+    std::vector<std::string> overlay_names(pairs.size());
+    std::set<std::string> taken;
+    for (size_t i = 0; i < pairs.size(); ++i) overlay_names[i] = UniqueFileName(SafeFileName(pairs[i].id), &taken);
+
     int pass = 0, fail = 0, unmeasured = 0, marginal = 0;
     double total_ms = 0;
-    std::set<std::string> overlay_names;
+    const auto start = std::chrono::steady_clock::now();
+    auto last_progress = start;
     Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", "id", "flatness_mm", "coverage", "verdict", "note");
-    for (const PairEntry& p : pairs) {
-      InspectionInputs inputs = base;
-      inputs.id = p.id;
-      inputs.left_file = p.left;
-      inputs.right_file = p.right;
-      InspectionRecord record;
-      try {
-        const cv::Mat1b l = ReadGreyImage(p.left, SizeOf(rig.left)), r = ReadGreyImage(p.right, SizeOf(rig.right));
-        const InspectionResult result = InspectPart(rig, plane, l, r, params_, p.left, p.right);
-        record = MeasuredRecord(result, params_, spec_, inputs);
-        (record.judgement.pass() ? pass : fail)++;
-        marginal += record.judgement.marginal;
-        total_ms += record.TotalMs();
-        Text() << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", p.id, record.values.flatness_mm,
-                              record.coverage, VerdictName(record.judgement.verdict),
-                              record.judgement.marginal ? "marginal" : "");
-        if (!overlay_.empty()) {
-          const std::string name = UniqueFileName(SafeFileName(p.id), &overlay_names);
-          WriteOverlays((std::filesystem::path(overlay_) / name).string(), l, r, result);
-        }
-      } catch (const InputError& e) {
-        ++unmeasured;
-        record = NotMeasuredRecord(e.what(), params_, spec_, inputs);
-        spdlog::error("{}: not measured: {}", p.id, e.what());
-        Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", p.id, "-", "-", "-", "not measured");
-      }
-      lines += RecordToJson(record).dump() + "\n";
-    }
+    ParallelInOrder<InspectionRecord>(
+        pairs.size(), 2 * static_cast<size_t>(tbb::this_task_arena::max_concurrency()),
+        [&](size_t i) { return MeasureBatchPart(rig, plane, base, pairs[i], overlay_names[i]); },
+        [&](size_t i, InspectionRecord& record) {
+          if (record.measured) {
+            (record.judgement.pass() ? pass : fail)++;
+            marginal += record.judgement.marginal;
+            total_ms += record.TotalMs();
+            Text() << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", record.id, record.values.flatness_mm,
+                                  record.coverage, VerdictName(record.judgement.verdict),
+                                  record.judgement.marginal ? "marginal" : "");
+          } else {
+            ++unmeasured;
+            spdlog::error("{}: not measured: {}", record.id, record.error);
+            Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", record.id, "-", "-", "-", "not measured");
+          }
+          if (lines) *lines << RecordToJson(record).dump() << "\n" << std::flush;
+          const auto now = std::chrono::steady_clock::now();
+          if (now - last_progress > std::chrono::seconds(2) || i + 1 == pairs.size()) {
+            last_progress = now;
+            const double elapsed = std::chrono::duration<double>(now - start).count();
+            spdlog::info("batch: part {}/{} ({:.0f} s, about {:.0f} s left)", i + 1, pairs.size(), elapsed,
+                         elapsed / static_cast<double>(i + 1) * static_cast<double>(pairs.size() - i - 1));
+          }
+        });
     const nlohmann::json summary = {{"summary", true},  {"parts", pairs.size()}, {"pass", pass}, {"fail", fail},
                                     {"not_measured", unmeasured}, {"marginal", marginal},
                                     {"mean_time_ms", pass + fail > 0 ? total_ms / (pass + fail) : 0.0}};
-    lines += summary.dump() + "\n";
+    if (lines) *lines << summary.dump() << "\n" << std::flush;
+    if (file.is_open()) {
+      file.close();
+      if (file.fail()) ThrowInputError("--json '{}': write failed", json_);
+    }
     Text() << fmt::format("{} parts: {} pass, {} fail, {} not measured{}\n", pairs.size(), pass, fail, unmeasured,
                           spec_.guard_band_mm > 0
                               ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, spec_.guard_band_mm)
                               : "");
-    out.StageText("--json", lines);
-    out.Commit();
     if (unmeasured > 0) return 2;
     return fail > 0 ? 1 : 0;
   }
@@ -214,12 +276,19 @@ class InspectCommand : public Command {
         r.completed > 0 ? fmt::format(" ({} outline points completed from the warp fit)", r.completed) : "", r.TotalMs());
   }
 
+  cv::Mat Scaled(const cv::Mat& overlay) const {
+    if (overlay_scale_ >= 1) return overlay;
+    cv::Mat small;
+    cv::resize(overlay, small, cv::Size(), overlay_scale_, overlay_scale_, cv::INTER_AREA);
+    return small;
+  }
+
   void StageOverlays(OutputFiles& out, const cv::Mat1b& l, const cv::Mat1b& r, const InspectionResult& result) const {
     out.Stage("--overlay (left)", [&](const std::filesystem::path& tmp) {
-      WriteImage(tmp.string(), DrawHeightOverlay(l, result, RigSide::kLeft, spec_));
+      WriteImage(tmp.string(), Scaled(DrawHeightOverlay(l, result, RigSide::kLeft, spec_)));
     });
     out.Stage("--overlay (right)", [&](const std::filesystem::path& tmp) {
-      WriteImage(tmp.string(), DrawHeightOverlay(r, result, RigSide::kRight, spec_));
+      WriteImage(tmp.string(), Scaled(DrawHeightOverlay(r, result, RigSide::kRight, spec_)));
     });
   }
 
@@ -227,10 +296,14 @@ class InspectCommand : public Command {
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) ThrowInputError("cannot create folder '{}': {}", dir, ec.message());
-    WriteImage((std::filesystem::path(dir) / "left_overlay.png").string(), DrawHeightOverlay(l, result, RigSide::kLeft, spec_));
-    WriteImage((std::filesystem::path(dir) / "right_overlay.png").string(), DrawHeightOverlay(r, result, RigSide::kRight, spec_));
+    WriteImage((std::filesystem::path(dir) / "left_overlay.png").string(),
+               Scaled(DrawHeightOverlay(l, result, RigSide::kLeft, spec_)));
+    WriteImage((std::filesystem::path(dir) / "right_overlay.png").string(),
+               Scaled(DrawHeightOverlay(r, result, RigSide::kRight, spec_)));
   }
 
+  CLI::Option* thickness_ = nullptr;
+  double overlay_scale_ = 1.0;
   std::string rig_, plane_, left_, right_, pairs_, json_, ply_, overlay_;
   bool no_correction_ = false, allow_foreign_plane_ = false;
   InspectionParams params_;

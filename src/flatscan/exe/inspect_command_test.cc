@@ -5,11 +5,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -61,6 +65,7 @@ TEST(InspectCommand, ExitCodesJsonAndBatch) {
                                                << "b,parts/part_001_left.png,parts/part_001_right.png\n";
   r = testing::RunFlatscan(common + fmt::format("--pairs {0}/batch.csv --tolerance 1.0 --json {0}/batch.jsonl", data));
   EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("info: batch: part 3/3 ("), std::string::npos) << r.err;  // progress with the time left
   std::stringstream lines(testing::ReadFileBytes(dir.path() / "data/batch.jsonl"));
   std::vector<nlohmann::json> records;
   for (std::string line; std::getline(lines, line);) records.push_back(nlohmann::json::parse(line));
@@ -70,6 +75,28 @@ TEST(InspectCommand, ExitCodesJsonAndBatch) {
   EXPECT_TRUE(records[1]["verdict"].is_null());
   EXPECT_EQ(records[2]["verdict"], "pass");
   EXPECT_EQ(records[3]["not_measured"], 1);
+
+  // The simulator's pairs.csv has each part's thickness: no --thickness needed, and each
+  // part is measured with its own (before: one --thickness for the whole batch).
+  r = testing::RunFlatscan(fmt::format("inspect --rig {0}/rig.yml --plane {0}/plane_true.yml --pairs {0}/pairs.csv "
+                                       "--tolerance 1 --json {0}/own.jsonl",
+                                       data));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  std::stringstream own_lines(testing::ReadFileBytes(dir.path() / "data/own.jsonl"));
+  std::vector<nlohmann::json> own;
+  for (std::string line; std::getline(own_lines, line);) own.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(own.size(), 3u);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(own[k]["thickness_mm"].get<double>(), truth["parts"][k]["side_height_mm"].get<double>()) << k;
+    EXPECT_NEAR(own[k]["flatness_mm"].get<double>(), truth["parts"][k]["flatness_mm"].get<double>(), 0.008) << k;
+  }
+  r = testing::RunFlatscan(fmt::format("inspect --rig {0}/rig.yml --plane {0}/plane_true.yml --pairs {0}/batch.csv "
+                                       "--tolerance 1",
+                                       data));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--thickness is required: pair 'a' of {}/batch.csv has no thickness", data)),
+            std::string::npos)
+      << r.err;
 }
 
 
@@ -257,6 +284,14 @@ TEST_F(InspectOnePart, BatchIdsBecomeSafeFolderNames) {
                    "batch.jsonl");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(fs::is_regular_file(overlays / "_._.._escape" / "left_overlay.png"));
+  // --overlay-scale: smaller overlays (a full-size RGB overlay is about 6.4 MB).
+  r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml",
+              fmt::format("--pairs {} --overlay {} --overlay-scale 0.25", (Data() / "escape.csv").string(),
+                          (Data() / "small_overlays").string()),
+              "");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(cv::imread((Data() / "small_overlays/_._.._escape/left_overlay.png").string()).size(),
+            cv::Size(648, 486));
   EXPECT_FALSE(fs::exists(Data().parent_path().parent_path() / "escape"));
   r = Inspect(Data() / "rig.yml", Data() / "plane_true.yml",
               fmt::format("--pairs {} --ply {}/b.ply", (Data() / "escape.csv").string(), Data().string()), "");
@@ -264,6 +299,46 @@ TEST_F(InspectOnePart, BatchIdsBecomeSafeFolderNames) {
   EXPECT_NE(r.err.find("--ply: a PLY is written for a single pair (--left, --right), not for a batch (--pairs)"),
             std::string::npos)
       << r.err;
+}
+
+// Before: a batch kept its records in memory until the end (10,000 pairs took about 35
+// min one at a time, and a killed batch kept nothing). Records stream in input order.
+TEST_F(InspectOnePart, ABatchStreamsItsRecordsInOrderAndAKilledOneKeepsThem) {
+  std::ofstream csv(Data() / "many.csv");
+  csv << "id,left,right\n";
+  for (int i = 0; i < 400; ++i) csv << fmt::format("p{:03d},{},{}\n", i, Left().string(), Right().string());
+  csv.close();
+  const fs::path jsonl = Data() / "many.jsonl";
+  std::vector<std::string> args = {FLATSCAN_BINARY, "--threads", "2", "inspect", "--rig", (Data() / "rig.yml").string(),
+                                   "--plane", (Data() / "plane_true.yml").string(), "--thickness",
+                                   fmt::format("{}", Thickness()), "--tolerance", "1", "--pairs",
+                                   (Data() / "many.csv").string(), "--json", jsonl.string(), "-q"};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, FLATSCAN_BINARY, nullptr, nullptr, argv.data(), environ), 0);
+  const auto count_lines = [&] {
+    const std::string text = fs::exists(jsonl) ? testing::ReadFileBytes(jsonl) : "";
+    return std::count(text.begin(), text.end(), '\n');
+  };
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (count_lines() < 5 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_EQ(kill(pid, SIGINT), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  std::stringstream text(testing::ReadFileBytes(jsonl));
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(text, line);) lines.push_back(line);
+  ASSERT_GE(lines.size(), 5u);
+  ASSERT_LT(lines.size(), 401u) << "the batch finished before it was interrupted";
+  for (size_t k = 0; k + 1 < lines.size(); ++k) {  // the last line may have been cut by the kill
+    const nlohmann::json j = nlohmann::json::parse(lines[k]);
+    EXPECT_EQ(j["id"], fmt::format("p{:03d}", k));
+    EXPECT_EQ(j["verdict"], "pass");
+  }
 }
 
 // Peak resident size (KiB) of `flatscan args`, and its exit code.
