@@ -4,11 +4,17 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <iostream>
 #include <memory>
+#include <new>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <opencv2/core.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -44,6 +50,25 @@ void RemovePartialOutputsOnInterrupt() {
   }).detach();
 }
 
+// The command named on the command line must be one of ours: CLI11 says only "A
+// subcommand is required" for `flatscan no-such-command`. The first argument that is no
+// option (nor --threads' value) is the command.
+std::string UnknownCommandMessage(int argc, char** argv, const CLI::App& app) {
+  std::vector<std::string> names;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) names.push_back(sub->get_name());
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--threads") {
+      ++i;
+      continue;
+    }
+    if (arg.starts_with("-")) continue;
+    if (std::find(names.begin(), names.end(), arg) != names.end()) return "";
+    return fmt::format("unknown command '{}' (expected one of: {}; see flatscan --help)", arg, fmt::join(names, ", "));
+  }
+  return "";
+}
+
 }  // namespace
 
 int RunCli(int argc, char** argv) {
@@ -70,6 +95,11 @@ int RunCli(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
+    const std::string unknown = UnknownCommandMessage(argc, argv, app);
+    if (!unknown.empty()) {
+      std::cerr << unknown << "\n";
+      return 2;
+    }
     app.exit(e);
     return 2;
   }
@@ -91,6 +121,10 @@ int RunCli(int argc, char** argv) {
       return 2;
     } catch (const cv::Exception& e) {
       spdlog::error("OpenCV: {}", e.what());
+      return 2;
+    } catch (const std::bad_alloc&) {
+      spdlog::error("out of memory: this input needs more memory than the machine has (docs/conventions.md, "
+                    "\"Input limits\", says what flatscan bounds)");
       return 2;
     } catch (const std::exception& e) {
       spdlog::error("internal error: {}", e.what());

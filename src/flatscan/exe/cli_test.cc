@@ -47,7 +47,11 @@ TEST(Cli, EverySubcommandHasHelp) {
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << sub;
   }
   EXPECT_EQ(RunFlatscan("").exit_code, 2);
-  EXPECT_EQ(RunFlatscan("no-such-command").exit_code, 2);
+  // Before: "A subcommand is required" for a command that does not exist.
+  const auto unknown = RunFlatscan("--threads 2 no-such-command --seed 1");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_EQ(unknown.err.rfind("unknown command 'no-such-command' (expected one of: ", 0), 0u) << unknown.err;
+  EXPECT_NE(unknown.err.find("inspect"), std::string::npos) << unknown.err;
 }
 
 TEST(Cli, UnknownSideFaceModelExitsTwoNamingTheChoices) {

@@ -327,7 +327,8 @@ std::vector<Eigen::Vector2d> HeightGains(Triangulator& triangulator, const Trian
 // triangulated with, by match.
 FaceCoupling Coupling(const RimPoints& rim, const std::vector<Eigen::Vector2d>& gain,
                       const std::vector<Eigen::Vector3d>& sides, const SupportPlane& plane) {
-  const auto [e1, e2] = PlaneAxes(plane);
+  const auto axes = PlaneAxes(plane);  // not a structured binding: clang 14 cannot capture those
+  const Eigen::Vector3d e1 = axes.first, e2 = axes.second;
   FaceCoupling c;
   auto add = [&](const std::vector<int>& matches, std::vector<Eigen::Vector2d>* g, std::vector<Eigen::Vector2d>* s) {
     for (int m : matches) {

@@ -66,6 +66,34 @@ std::optional<cv::Size> NetpbmSize(std::ifstream& in) {
   return cv::Size(static_cast<int>(dims[0]), static_cast<int>(dims[1]));
 }
 
+// TIFF: the first image file directory's ImageWidth (256) and ImageLength (257) tags.
+std::optional<cv::Size> TiffSize(std::ifstream& in, bool little) {
+  const auto read = [&](std::streamoff at, int bytes) -> std::optional<uint32_t> {
+    unsigned char b[4];
+    in.clear();
+    in.seekg(at);
+    if (!in.read(reinterpret_cast<char*>(b), bytes)) return std::nullopt;
+    return little ? LittleEndian(b, bytes) : BigEndian(b, bytes);
+  };
+  const std::optional<uint32_t> ifd = read(4, 4);
+  if (!ifd) return std::nullopt;
+  const std::optional<uint32_t> entries = read(*ifd, 2);
+  if (!entries || *entries > 4096) return std::nullopt;
+  uint32_t width = 0, height = 0;
+  for (uint32_t e = 0; e < *entries; ++e) {
+    const std::streamoff at = static_cast<std::streamoff>(*ifd) + 2 + 12 * static_cast<std::streamoff>(e);
+    const std::optional<uint32_t> tag = read(at, 2), type = read(at + 2, 2);
+    if (!tag || !type) return std::nullopt;
+    const std::optional<uint32_t> value = read(at + 8, *type == 3 ? 2 : 4);  // SHORT or LONG
+    if (!value) return std::nullopt;
+    if (*tag == 256) width = *value;
+    if (*tag == 257) height = *value;
+  }
+  if (width == 0 || height == 0) return std::nullopt;
+  return cv::Size(static_cast<int>(std::min<uint32_t>(width, INT32_MAX)),
+                  static_cast<int>(std::min<uint32_t>(height, INT32_MAX)));
+}
+
 }  // namespace
 
 std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
@@ -82,6 +110,8 @@ std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
   }
   if (h[0] == 0xFF && h[1] == 0xD8) return JpegSize(in);
   if (h[0] == 'P' && (h[1] == '2' || h[1] == '3' || h[1] == '5' || h[1] == '6')) return NetpbmSize(in);
+  if ((h[0] == 'I' && h[1] == 'I' && h[2] == 42 && h[3] == 0) || (h[0] == 'M' && h[1] == 'M' && h[2] == 0 && h[3] == 42))
+    return TiffSize(in, h[0] == 'I');
   return std::nullopt;
 }
 
@@ -89,7 +119,13 @@ cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) ThrowInputError("{}: no such file", path);
   if (std::filesystem::is_directory(path, ec)) ThrowInputError("{}: is a folder, not an image", path);
-  if (const std::optional<cv::Size> header = ReadImageHeaderSize(path)) {
+  // Only formats whose header says the size are decoded: OpenCV also decodes JPEG 2000,
+  // WebP, OpenEXR and more by their content (the image fuzzer reached JPEG 2000 from a
+  // mutated PNG), each bounded only by its own limit of 2^30 pixels.
+  const std::optional<cv::Size> header = ReadImageHeaderSize(path);
+  if (!header)
+    ThrowInputError("{}: cannot read image (expected an 8-bit grey PNG, JPEG, BMP, TIFF or PGM file)", path);
+  {
     if (static_cast<long long>(header->width) * header->height > kMaxImagePixels)
       ThrowInputError("{}: image is {}x{} px (from its header), more than flatscan's limit of {} million pixels",
                       path, header->width, header->height, kMaxImagePixels / 1'000'000);
@@ -131,8 +167,13 @@ cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
       ThrowInputError("{}: image with {} channels not supported (expected 8-bit grey)", path, image.channels());
   }
   if (image.depth() == CV_16U) {
-    double max_value = 0.0;
-    cv::minMaxLoc(image, nullptr, &max_value);
+    double min_value = 0.0, max_value = 0.0;
+    cv::minMaxLoc(image, &min_value, &max_value);
+    // Scaled by its maximum, a uniform image would read as saturated ("over-exposed").
+    if (min_value == max_value)
+      ThrowInputError("{}: uniform 16-bit image (every pixel {} of 65535): nothing to measure (expected a dark part "
+                      "on a bright backlight)",
+                      path, max_value);
     cv::Mat converted;
     if (max_value <= 255.0) {
       image.convertTo(converted, CV_8U);

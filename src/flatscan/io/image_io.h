@@ -11,9 +11,9 @@ namespace flatscan {
 // within the process's 1 GB; today's machine-vision sensors reach about 65 MP).
 constexpr long long kMaxImagePixels = 100'000'000;
 
-// The image size a PNG, JPEG, BMP or PGM/PPM file's header declares, read without
-// decoding the image; nullopt for other formats or a header that cannot be read (the
-// decoder then reports it).
+// The image size a PNG, JPEG, BMP, TIFF or PGM/PPM file's header declares, read without
+// decoding the image; nullopt for other formats or a header that cannot be read. Only
+// these formats are read (ReadGreyImage refuses the others).
 std::optional<cv::Size> ReadImageHeaderSize(const std::string& path);
 
 // Reads `path` as 8-bit grey. Colour (BGR/BGRA) and grey+alpha images are converted

@@ -15,7 +15,7 @@ namespace {
 TEST(ImageHeader, SizeOfEveryFormatTheStationReads) {
   testing::ScratchDir dir("image-header");
   const cv::Mat1b image(37, 53, uchar{128});
-  for (const char* ext : {".png", ".jpg", ".bmp", ".pgm"}) {
+  for (const char* ext : {".png", ".jpg", ".bmp", ".pgm", ".tif"}) {
     const std::string path = (dir.path() / (std::string("grey") + ext)).string();
     ASSERT_TRUE(cv::imwrite(path, image)) << ext;
     const std::optional<cv::Size> size = ReadImageHeaderSize(path);
@@ -52,6 +52,16 @@ TEST(ImageHeader, OversizedOrWronglySizedImagesAreRefusedBeforeDecoding) {
   EXPECT_EQ(testing::InputErrorOf([&] { ReadGreyImage((dir.path() / "truncated.png").string()); })
                 .rfind((dir.path() / "truncated.png").string() + ": cannot read image", 0),
             0u);
+}
+
+// Before: "over-exposed" for a uniform 16-bit image at half range (scaled by its maximum).
+TEST(ImageHeader, AUniformSixteenBitImageSaysSo) {
+  testing::ScratchDir dir("image-uniform16");
+  const std::string path = (dir.path() / "half.png").string();
+  ASSERT_TRUE(cv::imwrite(path, cv::Mat_<uint16_t>(20, 30, uint16_t{32768})));
+  EXPECT_EQ(testing::InputErrorOf([&] { ReadGreyImage(path); }),
+            path + ": uniform 16-bit image (every pixel 32768 of 65535): nothing to measure (expected a dark part on a "
+                   "bright backlight)");
 }
 
 }  // namespace

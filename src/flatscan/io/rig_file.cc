@@ -4,6 +4,8 @@
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -13,6 +15,7 @@
 
 #include "flatscan/calibration/rectification.h"
 #include "flatscan/io/atomic_output.h"
+#include "flatscan/io/file_storage_limits.h"
 #include "flatscan/util/error.h"
 #include "flatscan/util/sha256.h"
 
@@ -24,6 +27,8 @@ namespace {
 constexpr double kRotationTolerance = 1e-6;
 constexpr double kUnitNormalTolerance = 1e-6;
 constexpr double kMinBaselineMm = 1.0;
+// The largest matrix a rig or plane file holds: a plane file's N x 3 markers.
+constexpr double kMaxMatrixElements = 30000;
 constexpr const char* kExpectedFileStorage = "expected an OpenCV FileStorage YAML/XML file";
 
 std::string ShapeOf(const cv::Mat& m) { return fmt::format("{}x{}", m.rows, m.cols); }
@@ -46,12 +51,20 @@ class KeyReader {
     std::error_code ec;
     bool opened = false;
     if (fs::is_regular_file(path, ec)) {
+      std::ifstream in(path, std::ios::binary);
+      std::stringstream text;
+      text << in.rdbuf();
+      if (const auto why = FileStorageLimitExceeded(text.str()))
+        ThrowInputError("{}: cannot open {} ({}): {}", name_, kind, kExpectedFileStorage, *why);
       try {
         opened = storage_.open(name_, cv::FileStorage::READ);
-      } catch (const cv::Exception&) {
-        opened = false;  // unparsable
+      } catch (const std::exception&) {  // cv::Exception, and std::length_error from OpenCV's
+        opened = false;                  // YAML parser on some malformed files (fuzz/)
       }
     }
+    // The keys are looked up in the top-level map; a file whose top level is a list or a
+    // scalar makes cv::FileStorage::operator[] throw (found by fuzz/plane_file_fuzz.cc).
+    if (opened && !storage_.root().isMap()) opened = false;
     if (!opened) ThrowInputError("{}: cannot open {} ({})", name_, kind, kExpectedFileStorage);
   }
 
@@ -83,10 +96,20 @@ class KeyReader {
     const cv::FileNode node = Node(key, meaning);
     cv::Mat m;
     bool ok = node.isMap();
+    // OpenCV allocates rows x cols before it reads the data: a file claiming 100000 x
+    // 100000 would take 80 GB (found by fuzz/rig_file_fuzz.cc). Our matrices are small.
+    if (ok) {
+      const cv::FileNode rows = node["rows"], cols = node["cols"];
+      if (!rows.isInt() || !cols.isInt() || !node["dt"].isString())
+        Fail(key, "must be {}, found a malformed OpenCV matrix (rows and cols must be integers, dt a type)", shape);
+      const double elements = static_cast<double>(static_cast<int>(rows)) * static_cast<int>(cols);
+      if (static_cast<int>(rows) < 0 || static_cast<int>(cols) < 0 || elements > kMaxMatrixElements)
+        Fail(key, "must be {}, found a {}x{} matrix", shape, static_cast<int>(rows), static_cast<int>(cols));
+    }
     if (ok) {
       try {
         node >> m;
-      } catch (const cv::Exception&) {
+      } catch (const std::exception&) {
         ok = false;
       }
     }

@@ -407,6 +407,25 @@ TEST_F(RigFile, DegenerateBaselines) {
                                              "1 mm (T is in mm)"));
 }
 
+// Found by fuzz/rig_file_fuzz.cc and fuzz/plane_file_fuzz.cc: OpenCV allocated rows x cols
+// before reading the data (48 GB for one mutated file), and a file whose top level is
+// not a map made cv::FileStorage::operator[] throw.
+TEST_F(RigFile, HugeOrMalformedMatricesAndNonMapFiles) {
+  const auto matrix_text = [](const std::string& rows, const std::string& cols) {
+    return "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n   rows: " + rows +
+           "\n   cols: " + cols + "\n   dt: d\n   data: [ 1., 0., 0. ]\n";
+  };
+  const auto error = [&](const std::string& text) {
+    std::ofstream(path_, std::ios::trunc) << text;
+    return InputErrorOf([&] { ReadRigFile(path_); });
+  };
+  EXPECT_EQ(error(matrix_text("100000", "100000")), Expected("key 'M1' must be a 3x3 matrix, found a 100000x100000 matrix"));
+  EXPECT_EQ(error(matrix_text("=3", "3")), Expected("key 'M1' must be a 3x3 matrix, found a malformed OpenCV matrix (rows "
+                                                    "and cols must be integers, dt a type)"));
+  EXPECT_EQ(error("%YAML:1.0\n---\n- 1\n- 2\n"),
+            Expected("cannot open rig file (expected an OpenCV FileStorage YAML/XML file)"));
+}
+
 TEST_F(RigFile, NonFiniteValue) {
   cv::Mat t = ToCv(rig_.cam2_from_cam1.translation);
   t.at<double>(1) = std::nan("");

@@ -4,11 +4,13 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <opencv2/core.hpp>
 
+#include "flatscan/io/file_storage_limits.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -372,6 +374,7 @@ SceneConfig LoadSceneFile(const std::filesystem::path& path) {
       ThrowInputError("{}: not valid JSON ({})", source, e.what());
     }
   } else {
+    if (const auto why = FileStorageLimitExceeded(text)) ThrowInputError("{}: not valid YAML ({})", source, *why);
     try {
       std::string yaml = text;
       if (yaml.rfind("%YAML", 0) != 0) yaml = "%YAML:1.0\n---\n" + yaml;
@@ -379,6 +382,8 @@ SceneConfig LoadSceneFile(const std::filesystem::path& path) {
       doc = FileNodeToJson(fs.root());
     } catch (const cv::Exception& e) {
       ThrowInputError("{}: not valid YAML ({})", source, e.msg);
+    } catch (const std::length_error& e) {  // OpenCV's YAML parser on some malformed files (fuzz/)
+      ThrowInputError("{}: not valid YAML ({})", source, e.what());
     }
   }
   std::string preset = "paper";
