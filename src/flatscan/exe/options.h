@@ -87,14 +87,6 @@ inline CLI::Option* AddCalibrationPosesOption(CLI::App* sub, int* poses) {
       ->check(IntegerIn(3, 200));
 }
 
-// Fails early (before minutes of work) when the folder an output goes into does not exist.
-inline void CheckOutputFolder(const std::filesystem::path& path, const std::string& option) {
-  const std::filesystem::path parent = path.has_parent_path() ? path.parent_path() : ".";
-  std::error_code ec;
-  if (!std::filesystem::is_directory(parent, ec))
-    ThrowInputError("{} '{}': the folder '{}' does not exist", option, path.string(), parent.string());
-}
-
 inline SceneConfig LoadScene(const std::string& preset, const std::string& scene_file) {
   return scene_file.empty() ? ScenePreset(preset) : LoadSceneFile(scene_file);
 }
