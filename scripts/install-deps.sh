@@ -7,6 +7,7 @@ PACKAGES=(
   libopencv-dev libopencv-contrib-dev opencv-doc   # calib3d, imgproc, FileStorage; opencv-doc has the stereo sample images
   libeigen3-dev libnanoflann-dev libtbb-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
+  zlib1g-dev                                        # CRC-32 of PNG chunks (io/image_io.cc)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)
 )

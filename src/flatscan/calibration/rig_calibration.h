@@ -17,6 +17,7 @@
 // it, so the two can be compared on the same images.
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,10 @@ struct RigCalibrationOptions {
   DistortionModel model = DistortionModel::kStandard;
   // Called (possibly from worker threads, one call at a time) as pairs are processed.
   std::function<void(const std::string&)> progress;
+  // Reads one image as 8-bit grey, throwing InputError naming the file. The command
+  // passes io's ReadGreyImage (header size limit, damaged PNG files); when empty,
+  // cv::imread is used. Called from worker threads.
+  std::function<cv::Mat(const std::filesystem::path&)> read_image;
 };
 
 struct RejectedPair {
@@ -121,6 +126,13 @@ struct RigCalibrationReport {
 // show the board in both images (none found at all is said so).
 constexpr int kMinCalibrationPairs = 3;
 RigCalibrationReport CalibrateRig(const std::vector<ImagePairFiles>& pairs, const RigCalibrationOptions& options);
+
+// The inner-corner size (columns x rows, the longer side first) of the chessboard an
+// image seems to show, whatever size was asked for: cv::findChessboardCornersSB with
+// CALIB_CB_LARGER grows the board from a 3x3 seed and returns its extent in `meta`.
+// A hint only: on OpenCV's samples of a 9x6 board it reports 9x6 for most images but
+// 8x8, 7x9 or 3x3 for some. nullopt when no board is found.
+std::optional<cv::Size> DetectedBoardSize(const cv::Mat& gray);
 
 // Corners of one pair, both in OpenCV's order and referring to the same board corners.
 struct BoardViewPair {

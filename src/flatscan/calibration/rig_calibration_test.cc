@@ -410,10 +410,19 @@ TEST(RigCalibrationCli, AWrongBoardSizeFailsFastWithProgress) {
   EXPECT_TRUE(Contains(r.err, "info: pair 1 of 3: left01.jpg no board")) << r.err;
   EXPECT_TRUE(Contains(r.err, "--board: no 7x5 chessboard (inner corners) found in both images of any of the 3 pairs"))
       << r.err;
+  // And it says which size the images show.
+  EXPECT_TRUE(Contains(r.err, "; the images seem to show a board of 9x6 inner corners (try --board 9x6)")) << r.err;
   r = RunFlatscan("calibrate-rig " + images + " --board 100000x100000");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_TRUE(Contains(r.err, "--board: 100000x100000: expected 3 to 100 inner corners on each side")) << r.err;
   EXPECT_FALSE(fs::exists(rig));
+}
+
+TEST(RigCalibration, DetectedBoardSizeOfTheSampleBoard) {
+  const cv::Mat gray = cv::imread((kOpenCvSampleDir / "left02.jpg").string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(gray.empty()) << "install opencv-doc (scripts/install-deps.sh)";
+  EXPECT_EQ(DetectedBoardSize(gray), cv::Size(9, 6));
+  EXPECT_FALSE(DetectedBoardSize(cv::Mat1b(480, 640, uchar{128})).has_value());
 }
 
 TEST(RigCalibrationCli, BadInputExitsWithCode2AndWritesNothing) {

@@ -14,6 +14,7 @@
 #include "flatscan/exe/options.h"
 #include "flatscan/exe/parse_util.h"
 #include "flatscan/io/atomic_output.h"
+#include "flatscan/io/image_io.h"
 #include "flatscan/io/output_files.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/util/error.h"
@@ -65,6 +66,7 @@ class CalibrateRigCommand : public Command {
     options.board.square_mm = square_mm_;
     options.model = ParseDistortionModel(model_);
     options.progress = [](const std::string& s) { spdlog::info("{}", s); };
+    options.read_image = [](const std::filesystem::path& path) -> cv::Mat { return ReadGreyImage(path.string()); };
 
     const std::vector<ImagePairFiles> pairs = PairImagesByName(left_, right_);
     std::vector<OutputFiles::Named> inputs;

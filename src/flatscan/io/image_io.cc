@@ -8,10 +8,14 @@
 #include <fstream>
 #include <optional>
 #include <string>
+#include <vector>
+
+#include <fmt/format.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
+#include <zlib.h>
 
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/util/error.h"
@@ -19,6 +23,8 @@
 namespace flatscan {
 
 namespace {
+
+constexpr unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
 
 uint32_t BigEndian(const unsigned char* p, int bytes) {
   uint32_t v = 0;
@@ -94,14 +100,55 @@ std::optional<cv::Size> TiffSize(std::ifstream& in, bool little) {
                   static_cast<int>(std::min<uint32_t>(height, INT32_MAX)));
 }
 
+bool IsPng(const std::string& path) {
+  unsigned char h[8] = {};
+  std::ifstream in(path, std::ios::binary);
+  return in.read(reinterpret_cast<char*>(h), 8) && std::equal(kPngSignature, kPngSignature + 8, h);
+}
+
+// What is wrong with a PNG file's chunk structure, or nullopt when every chunk is
+// whole, passes its CRC-32 and the file ends with IEND. Checked before decoding because
+// libpng prints its own "libpng error: Read Error" (a truncated file: one copied while it
+// was still being written) or "IDAT: CRC error" to stderr, without the file's name,
+// before OpenCV returns an empty image. A chunk is a 4-byte big-endian length, a 4-byte
+// type, the data and a CRC-32 of type and data (PNG specification, section 5.3).
+std::optional<std::string> PngChunkDamage(std::ifstream& in, uintmax_t file_bytes) {
+  constexpr uint32_t kMaxChunkBytes = 0x7FFFFFFF;  // the specification's limit, 2^31 - 1
+  std::vector<unsigned char> block(1 << 16);
+  uintmax_t at = 8;  // after the signature
+  in.clear();
+  in.seekg(static_cast<std::streamoff>(at));
+  unsigned char head[8];
+  while (at + 12 <= file_bytes && in.read(reinterpret_cast<char*>(head), 8)) {
+    const uint32_t length = BigEndian(head, 4);
+    const std::string type(reinterpret_cast<const char*>(head + 4), 4);
+    if (length > kMaxChunkBytes || at + 12 + length > file_bytes)
+      return fmt::format("truncated PNG: chunk {} at byte {} needs {} bytes, only {} are left", type, at,
+                         12 + static_cast<uintmax_t>(length), file_bytes - at);
+    uLong crc = crc32(0L, head + 4, 4);
+    for (uint32_t left = length; left > 0;) {
+      const uint32_t n = std::min<uint32_t>(left, static_cast<uint32_t>(block.size()));
+      if (!in.read(reinterpret_cast<char*>(block.data()), n)) return "cannot read the file";
+      crc = crc32(crc, block.data(), n);
+      left -= n;
+    }
+    unsigned char stored[4];
+    if (!in.read(reinterpret_cast<char*>(stored), 4)) return "cannot read the file";
+    if (BigEndian(stored, 4) != crc)
+      return fmt::format("damaged PNG: chunk {} at byte {} fails its CRC check", type, at);
+    at += 12 + static_cast<uintmax_t>(length);
+    if (type == "IEND") return std::nullopt;
+  }
+  return fmt::format("truncated PNG: the file ends after {} bytes without its IEND chunk", file_bytes);
+}
+
 }  // namespace
 
 std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   unsigned char h[26] = {};
   if (!in.read(reinterpret_cast<char*>(h), sizeof(h))) in.clear();
-  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  if (std::equal(kPng, kPng + 8, h) && std::equal(h + 12, h + 16, "IHDR"))
+  if (std::equal(kPngSignature, kPngSignature + 8, h) && std::equal(h + 12, h + 16, "IHDR"))
     return cv::Size(static_cast<int>(std::min<uint32_t>(BigEndian(h + 16, 4), INT32_MAX)),
                     static_cast<int>(std::min<uint32_t>(BigEndian(h + 20, 4), INT32_MAX)));
   if (h[0] == 'B' && h[1] == 'M') {  // BITMAPINFOHEADER: signed width, height (negative: top-down)
@@ -133,6 +180,11 @@ cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
       ThrowInputError("{}: image is {}x{} but the rig was calibrated for {}x{}: use the images of the calibrated "
                       "cameras",
                       path, header->width, header->height, expected.width, expected.height);
+  }
+  if (IsPng(path)) {
+    std::ifstream in(path, std::ios::binary);
+    if (const auto damage = PngChunkDamage(in, std::filesystem::file_size(path, ec)))
+      ThrowInputError("{}: {} (expected a complete 8-bit grey PNG file)", path, *damage);
   }
   cv::Mat image;
   try {

@@ -219,17 +219,19 @@ Eigen::Vector3d ReadTranslation(const KeyReader& in, const char* key, const char
 // degenerate rectification (a baseline along z sends the rectified rows to infinity:
 // 16.8 GB of row crossings for T = [0, 0, 60]).
 void CheckBaseline(const KeyReader& in, const StereoRig& rig) {
-  const Eigen::Vector3d c2 = rig.cam2_from_cam1.Inverse().OriginOfSource();  // camera 2's centre
+  // Camera 2's centre; adding 0 turns -0 into 0 for the message.
+  const Eigen::Vector3d c2 = rig.cam2_from_cam1.Inverse().OriginOfSource() + Eigen::Vector3d::Zero();
   const std::string where = fmt::format("camera 2's centre is at ({:.4g}, {:.4g}, {:.4g}) mm in camera 1's frame",
                                         c2.x(), c2.y(), c2.z());
   if (c2.stableNorm() < kMinBaselineMm)
     in.Fail("T", "gives a baseline of {:.3g} mm ({}); a stereo rig needs at least {} mm (T is in mm)", c2.stableNorm(),
             where, kMinBaselineMm);
-  if (std::abs(c2.z()) >= std::abs(c2.x()))
+  const Eigen::Vector3d size = c2.cwiseAbs();
+  if (size.z() >= size.x() && size.z() >= size.y())
     in.Fail("T", "puts the baseline along the viewing direction ({}): the cameras must stand side by side, the "
             "baseline across their views",
             where);
-  if (std::abs(c2.y()) >= std::abs(c2.x()))
+  if (size.y() >= size.x())
     in.Fail("T", "gives a vertical baseline ({}): flatscan matches along image rows, so the cameras must stand "
             "side by side along the image x axis (or rotate both images by 90 degrees)",
             where);

@@ -398,10 +398,12 @@ TEST_F(RigFile, DegenerateBaselines) {
   EXPECT_EQ(with_t({0, 0, 60}), Expected("key 'T' puts the baseline along the viewing direction (camera 2's centre "
                                          "is at (0, 0, 60) mm in camera 1's frame): the cameras must stand side "
                                          "by side, the baseline across their views"));
-  EXPECT_EQ(with_t({0.5, 60, 0}), Expected("key 'T' gives a vertical baseline (camera 2's centre is at (0.5, 60, 0) "
-                                           "mm in camera 1's frame): flatscan matches along image rows, so the "
-                                           "cameras must stand side by side along the image x axis (or rotate "
-                                           "both images by 90 degrees)"));
+  for (const double x : {0.0, 0.5})  // x = 0 was "along the viewing direction" before
+    EXPECT_EQ(with_t({x, 60, 0}),
+              Expected(fmt::format("key 'T' gives a vertical baseline (camera 2's centre is at ({}, 60, 0) mm in "
+                                   "camera 1's frame): flatscan matches along image rows, so the cameras must stand "
+                                   "side by side along the image x axis (or rotate both images by 90 degrees)",
+                                   x)));
   EXPECT_EQ(with_t({1e-300, 0, 0}), Expected("key 'T' gives a baseline of 1e-300 mm (camera 2's centre is at "
                                              "(1e-300, 0, 0) mm in camera 1's frame); a stereo rig needs at least "
                                              "1 mm (T is in mm)"));
@@ -423,7 +425,14 @@ TEST_F(RigFile, HugeOrMalformedMatricesAndNonMapFiles) {
   EXPECT_EQ(error(matrix_text("=3", "3")), Expected("key 'M1' must be a 3x3 matrix, found a malformed OpenCV matrix (rows "
                                                     "and cols must be integers, dt a type)"));
   EXPECT_EQ(error("%YAML:1.0\n---\n- 1\n- 2\n"),
-            Expected("cannot open rig file (expected an OpenCV FileStorage YAML/XML file)"));
+            Expected("cannot open rig file (expected an OpenCV FileStorage YAML/XML file): line 3 starts with '-': "
+                     "the file must be one YAML map, its keys at the start of a line and their values indented"));
+  // In flow style too; an XML file is not checked as YAML.
+  EXPECT_EQ(error("%YAML:1.0\n[1, 2]\n"),
+            Expected("cannot open rig file (expected an OpenCV FileStorage YAML/XML file): line 2 starts with '[': "
+                     "the file must be one YAML map, its keys at the start of a line and their values indented"));
+  EXPECT_EQ(error("<?xml version=\"1.0\"?>\n<opencv_storage>\n<a>1</a>\n</opencv_storage>\n"),
+            Expected("missing key 'image_width' (expected image width in pixels, an integer > 0)"));
 }
 
 TEST_F(RigFile, NonFiniteValue) {

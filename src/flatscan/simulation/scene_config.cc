@@ -374,10 +374,10 @@ SceneConfig LoadSceneFile(const std::filesystem::path& path) {
       ThrowInputError("{}: not valid JSON ({})", source, e.what());
     }
   } else {
-    if (const auto why = FileStorageLimitExceeded(text)) ThrowInputError("{}: not valid YAML ({})", source, *why);
+    if (const auto why = FileStorageLimitExceeded(text, /*yaml=*/true)) ThrowInputError("{}: not valid YAML ({})", source, *why);
     try {
       std::string yaml = text;
-      if (yaml.rfind("%YAML", 0) != 0) yaml = "%YAML:1.0\n---\n" + yaml;
+      if (yaml.rfind("%YAML", 0) != 0) yaml = (yaml.rfind("---", 0) == 0 ? "%YAML:1.0\n" : "%YAML:1.0\n---\n") + yaml;
       cv::FileStorage fs(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
       doc = FileNodeToJson(fs.root());
     } catch (const cv::Exception& e) {

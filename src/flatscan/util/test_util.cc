@@ -37,7 +37,7 @@ std::string ReadFileBytes(const std::filesystem::path& path) {
   return s.str();
 }
 
-CommandResult RunFlatscan(const std::string& args) {
+CommandResult RunFlatscan(const std::string& args, int timeout_s) {
 #ifdef FLATSCAN_BINARY
   const std::string binary = FLATSCAN_BINARY;
 #else
@@ -46,7 +46,8 @@ CommandResult RunFlatscan(const std::string& args) {
   const std::filesystem::path base = std::filesystem::temp_directory_path() /
                                      ("flatscan-run-" + std::to_string(::getpid()));
   const std::string out = base.string() + ".out", err = base.string() + ".err";
-  const std::string command = "'" + binary + "' " + args + " >'" + out + "' 2>'" + err + "' </dev/null";
+  const std::string limit = timeout_s > 0 ? "timeout -s KILL " + std::to_string(timeout_s) + " " : "";
+  const std::string command = limit + "'" + binary + "' " + args + " >'" + out + "' 2>'" + err + "' </dev/null";
   const int status = std::system(command.c_str());
   CommandResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

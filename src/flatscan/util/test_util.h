@@ -23,8 +23,10 @@ struct CommandResult {
   std::string err;  // stderr
 };
 
-// Runs build/flatscan with `args` (a shell-quoted string).
-CommandResult RunFlatscan(const std::string& args);
+// Runs build/flatscan with `args` (a shell-quoted string). With `timeout_s` > 0 the
+// process is killed after that many seconds (exit code 137), so that a hang fails the
+// test instead of stalling it.
+CommandResult RunFlatscan(const std::string& args, int timeout_s = 0);
 
 // The message of the InputError that `f` throws, or "(no error)".
 std::string InputErrorOf(const std::function<void()>& f);
