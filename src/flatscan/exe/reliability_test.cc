@@ -250,7 +250,7 @@ class Reliability : public ::testing::Test {
   static void WriteBadRigs(const fs::path& d) {
     const Camera camera = ReadRigFile(d / "data/rig.yml").left;
     const cv::Mat m = camera.CameraMatrix();
-      const auto t = [](double x, double y, double z) {
+    const auto t = [](double x, double y, double z) {
       cv::Mat_<double> v(3, 1);
       v << x, y, z;
       return cv::Mat(v);

@@ -100,25 +100,20 @@ std::optional<cv::Size> TiffSize(std::ifstream& in, bool little) {
                   static_cast<int>(std::min<uint32_t>(height, INT32_MAX)));
 }
 
-bool IsPng(const std::string& path) {
-  unsigned char h[8] = {};
-  std::ifstream in(path, std::ios::binary);
-  return in.read(reinterpret_cast<char*>(h), 8) && std::equal(kPngSignature, kPngSignature + 8, h);
-}
-
 // What is wrong with a PNG file's chunk structure, or nullopt when every chunk is
-// whole, passes its CRC-32 and the file ends with IEND. Checked before decoding because
+// whole, passes its CRC-32 and the file ends with IEND (or when it is not a PNG file). Checked before decoding because
 // libpng prints its own "libpng error: Read Error" (a truncated file: one copied while it
 // was still being written) or "IDAT: CRC error" to stderr, without the file's name,
 // before OpenCV returns an empty image. A chunk is a 4-byte big-endian length, a 4-byte
 // type, the data and a CRC-32 of type and data (PNG specification, section 5.3).
-std::optional<std::string> PngChunkDamage(std::ifstream& in, uintmax_t file_bytes) {
+std::optional<std::string> PngChunkDamage(const std::string& path, uintmax_t file_bytes) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[8];
+  if (!in.read(reinterpret_cast<char*>(head), 8) || !std::equal(kPngSignature, kPngSignature + 8, head))
+    return std::nullopt;
   constexpr uint32_t kMaxChunkBytes = 0x7FFFFFFF;  // the specification's limit, 2^31 - 1
   std::vector<unsigned char> block(1 << 16);
   uintmax_t at = 8;  // after the signature
-  in.clear();
-  in.seekg(static_cast<std::streamoff>(at));
-  unsigned char head[8];
   while (at + 12 <= file_bytes && in.read(reinterpret_cast<char*>(head), 8)) {
     const uint32_t length = BigEndian(head, 4);
     const std::string type(reinterpret_cast<const char*>(head + 4), 4);
@@ -181,11 +176,8 @@ cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
                       "cameras",
                       path, header->width, header->height, expected.width, expected.height);
   }
-  if (IsPng(path)) {
-    std::ifstream in(path, std::ios::binary);
-    if (const auto damage = PngChunkDamage(in, std::filesystem::file_size(path, ec)))
-      ThrowInputError("{}: {} (expected a complete 8-bit grey PNG file)", path, *damage);
-  }
+  if (const auto damage = PngChunkDamage(path, std::filesystem::file_size(path, ec)))
+    ThrowInputError("{}: {} (expected a complete 8-bit grey PNG file)", path, *damage);
   cv::Mat image;
   try {
     image = cv::imread(path, cv::IMREAD_UNCHANGED);
