@@ -256,6 +256,22 @@ cv::Mat FirstCoefficients(const cv::Mat& distortion, int n) {
   return d.colRange(0, n).clone();
 }
 
+RigReplicate ToReplicate(const cv::Mat& m1, const cv::Mat& d1, const cv::Mat& m2, const cv::Mat& d2, const cv::Mat& r,
+                         const cv::Mat& t, cv::Size image_size, int n_coefficients) {
+  RigReplicate out;
+  out.left = Camera::FromOpenCv(m1, FirstCoefficients(d1, n_coefficients), image_size.width, image_size.height);
+  out.right = Camera::FromOpenCv(m2, FirstCoefficients(d2, n_coefficients), image_size.width, image_size.height);
+  cv::Mat r64, t64;
+  r.convertTo(r64, CV_64F);
+  t.convertTo(t64, CV_64F);
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+  cv::cv2eigen(r64, rotation);
+  cv::cv2eigen(t64.reshape(1, 3), translation);
+  out.cam2_from_cam1 = {rotation, translation};
+  return out;
+}
+
 std::string SizeText(cv::Size s) { return fmt::format("{}x{}", s.width, s.height); }
 
 cv::Mat LoadGrayImage(const fs::path& path) {
@@ -602,17 +618,24 @@ RigCalibrationReport CalibrateRigFromCorners(const std::vector<BoardViewPair>& v
 
   StereoRig& rig = report.rig;
   const int n_coefficients = options.model == DistortionModel::kRational ? 8 : 5;
-  rig.left = Camera::FromOpenCv(m1, FirstCoefficients(d1, n_coefficients), image_size.width, image_size.height);
-  rig.right = Camera::FromOpenCv(m2, FirstCoefficients(d2, n_coefficients), image_size.width, image_size.height);
-  cv::Mat r64, t64;
-  r.convertTo(r64, CV_64F);
-  t.convertTo(t64, CV_64F);
-  Eigen::Matrix3d rotation;
-  Eigen::Vector3d translation;
-  cv::cv2eigen(r64, rotation);
-  cv::cv2eigen(t64.reshape(1, 3), translation);
-  rig.cam2_from_cam1 = {rotation, translation};
+  const RigReplicate full = ToReplicate(m1, d1, m2, d2, r, t, image_size, n_coefficients);
+  rig.left = full.left;
+  rig.right = full.right;
+  rig.cam2_from_cam1 = full.cam2_from_cam1;
   rig.ComputeRectification();
+  if (options.replicates && views.size() >= 4) {
+    rig.replicates.resize(views.size());
+    tbb::parallel_for(size_t{0}, views.size(), [&](size_t left_out) {
+      auto without = [left_out](auto all) {
+        all.erase(all.begin() + static_cast<std::ptrdiff_t>(left_out));
+        return all;
+      };
+      cv::Mat m1_i = m1.clone(), d1_i = d1.clone(), m2_i = m2.clone(), d2_i = d2.clone(), r_i, t_i, e_i, f_i;
+      cv::stereoCalibrate(without(object_points), without(left_points), without(right_points), m1_i, d1_i, m2_i, d2_i,
+                          image_size, r_i, t_i, e_i, f_i, cv::CALIB_USE_INTRINSIC_GUESS | model_flags, criteria);
+      rig.replicates[left_out] = ToReplicate(m1_i, d1_i, m2_i, d2_i, r_i, t_i, image_size, n_coefficients);
+    });
+  }
 
   const Eigen::Matrix3d fundamental = FundamentalMatrix(rig);
   double epipolar_sum = 0;

@@ -11,6 +11,12 @@
 //      (cv::stereoCalibrate with CALIB_USE_INTRINSIC_GUESS: both cameras' intrinsics and
 //      the relative pose refined together, each camera with its own focal lengths).
 //   5. Rectify (cv::stereoRectify, flags = 0: StereoRig::ComputeRectification).
+//   6. Jackknife replicates: step 4's pair refinement again without each pair in turn,
+//      started from the full solution. For an estimate theta from n pairs and
+//      theta_i without pair i, the jackknife variance is (n - 1) / n sum (theta_i -
+//      mean theta_i)^2 (Efron and Tibshirani, An Introduction to the Bootstrap, ch.
+//      11): the scatter of the calibration from the corners' own noise and the poses
+//      drawn, which the inspection carries into each part's uncertainty.
 //
 // Quality figures (see RigCalibrationReport): the stereo RMS reprojection error and
 // the average epipolar error exactly as OpenCV's samples/cpp/stereo_calib.cpp computes
@@ -75,6 +81,10 @@ std::vector<ImagePairFiles> PairImagesByName(const std::vector<std::string>& lef
 struct RigCalibrationOptions {
   ChessboardSpec board;
   DistortionModel model = DistortionModel::kStandard;
+  // Jackknife replicates (StereoRig::replicates): the pair calibration run again
+  // without each chessboard pair in turn, from the full solution (needs 4 pairs or
+  // more). About one stereo refinement per pair.
+  bool replicates = true;
   // Called (possibly from worker threads, one call at a time) as pairs are processed.
   std::function<void(const std::string&)> progress;
   // Reads one image as 8-bit grey, throwing InputError naming the file. The command

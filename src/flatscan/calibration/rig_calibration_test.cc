@@ -257,10 +257,23 @@ void ExpectRecoversTrueRig(const SimulatedCalibration& sim, int poses) {
   EXPECT_LT(e.focal_relative, 5e-4);  // 0.05%
   EXPECT_LT(e.baseline_mm, 0.02);
   EXPECT_LT(e.rotation_deg, 0.01);
-  std::printf("%s: RMS %.4f px, epipolar %.4f px; focal error %.4f%%, baseline error %.4f mm, "
+  // One jackknife replicate per pair, each close to the full calibration; their
+  // scatter (the jackknife SD) is of the size of the actual baseline error.
+  ASSERT_EQ(static_cast<int>(r.rig.replicates.size()), poses);
+  double mean = 0, sum_squares = 0;
+  for (const RigReplicate& replicate : r.rig.replicates) mean += replicate.cam2_from_cam1.translation.norm() / poses;
+  for (const RigReplicate& replicate : r.rig.replicates) {
+    const double baseline = replicate.cam2_from_cam1.translation.norm();
+    EXPECT_LT(std::abs(baseline - r.rig.BaselineMm()), 0.02);
+    sum_squares += (baseline - mean) * (baseline - mean);
+  }
+  const double jackknife_sd = std::sqrt((poses - 1.0) / poses * sum_squares);
+  EXPECT_GT(jackknife_sd, 1e-5);
+  EXPECT_LT(jackknife_sd, 0.02);
+  std::printf("%s: RMS %.4f px, epipolar %.4f px; focal error %.4f%%, baseline error %.4f mm (jackknife SD %.4f mm), "
               "rotation error %.5f deg\n",
               sim.station.scene.name.c_str(), r.rms_px, r.epipolar_px, 100 * e.focal_relative, e.baseline_mm,
-              e.rotation_deg);
+              jackknife_sd, e.rotation_deg);
 }
 
 // The statistical error of the relative rotation with 12-15 views is about 0.005 deg

@@ -3,6 +3,8 @@
 // X2 = R X1 + T (cam2_from_cam1, mm), exactly as cv::stereoCalibrate reports it.
 // The rectification (R1, R2, P1, P2, Q) is cv::stereoRectify with flags = 0
 // (CALIB_ZERO_DISPARITY leaves a tiny valid region on a convergent rig) and alpha = -1.
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "flatscan/geometry/camera.h"
@@ -20,11 +22,22 @@ struct Rectification {
   bool empty() const { return R1.empty(); }
 };
 
+// The cameras and relative pose of a rig calibrated again without one of its
+// chessboard pairs (calibration/rig_calibration.h): a jackknife replicate.
+struct RigReplicate {
+  Camera left, right;
+  Rigid3d cam2_from_cam1;
+};
+
 struct StereoRig {
   Camera left;
   Camera right;
   Rigid3d cam2_from_cam1;
   Rectification rectification;
+  // Jackknife replicates of the calibration, one per chessboard pair left out; their
+  // scatter is the calibration's own uncertainty (inspection/part_uncertainty.h).
+  // Empty for a rig whose file does not carry them (imported, or written before).
+  std::vector<RigReplicate> replicates;
 
   // Fills `rectification` from the cameras and the relative pose.
   void ComputeRectification();

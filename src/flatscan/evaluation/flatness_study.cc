@@ -55,6 +55,7 @@ PartMeasurement MeasurePair(const CalibratedStation& station, const cv::Mat1b& l
     m.measured = true;
     m.values = result.values;
     m.coverage = result.coverage;
+    m.uncertainty = result.uncertainty;
     m.valid_points = result.valid;
     m.pass = Judge(result.values.flatness_mm, {options.tolerance_mm}).pass();
   } catch (const InputError& e) {

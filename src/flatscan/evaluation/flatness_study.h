@@ -34,6 +34,7 @@ struct PartMeasurement {
   std::string error;         // why it was not measured
   FlatnessValues values;     // measured
   double coverage = 0;
+  PartUncertainty uncertainty;  // the part's own (inspection/part_uncertainty.h)
   int valid_points = 0;
   double inspect_ms = 0;     // InspectPart on the decoded pair (CPU time of its one thread)
   bool pass = false;         // the verdict on the measured flatness (Judge)

@@ -33,6 +33,12 @@ nlohmann::json MeasurementJson(const PartMeasurement& m) {
   j["error_mm"] = m.ErrorMm();
   j["verdict"] = m.pass ? "pass" : "fail";
   j["coverage"] = m.coverage;
+  j["uncertainty_mm"] = m.uncertainty.expanded_mm;
+  j["uncertainty"] = {{"rim_mm", m.uncertainty.rim_mm},
+                      {"rig_mm", m.uncertainty.rig_mm},
+                      {"plane_mm", m.uncertainty.plane_mm},
+                      {"method_mm", m.uncertainty.method_mm},
+                      {"maximum_unmeasured", m.uncertainty.maximum_unmeasured}};
   j["valid_points"] = m.valid_points;
   j["inspect_ms"] = m.inspect_ms;
   return j;

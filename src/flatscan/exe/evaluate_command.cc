@@ -6,6 +6,7 @@
 
 #include "flatscan/evaluation/flatness_study.h"
 #include "flatscan/evaluation/study_report.h"
+#include "flatscan/evaluation/uncertainty_validation.h"
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
@@ -76,6 +77,12 @@ class EvaluateCommand : public Command {
               ->check(IntegerIn(1, 100000)),
           "rotation.parts");
     AddCalibrationPosesOption(sub_, &calib_poses_);
+    Fills(sub_->add_option("--calibrations", calibrations_,
+                           "validate each part's uncertainty_mm on the batch study repeated with this many stations, "
+                           "each calibrated from its own images (seeds --seed, --seed + 1, ...)")
+              ->check(IntegerIn(1, 100))
+              ->default_val(calibrations_),
+          "calibrations");
     sub_->add_option("--save-worst", save_worst_,
                      "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
@@ -107,12 +114,17 @@ class EvaluateCommand : public Command {
     StagedDirectory dir(output_, force_);
     const std::filesystem::path root = dir.path();
     spdlog::info("simulating and calibrating the station '{}'", scene.name);
-    CalibratedStation station = SimulateAndCalibrateStation(
-        scene, seed_, root / "station", [](const std::string& s) { spdlog::info("rendering {}", s); });
-    if (true_calibration_) {
-      station.rig_report.rig = station.truth.rig;
-      station.plane_report.plane = station.truth.plane;
-    }
+    // A station calibrated from its own simulated images (or, diagnostic, the truth).
+    auto make_station = [&](uint64_t seed, const std::filesystem::path& dir) {
+      CalibratedStation s =
+          SimulateAndCalibrateStation(scene, seed, dir, [](const std::string& line) { spdlog::info("rendering {}", line); });
+      if (true_calibration_) {
+        s.rig_report.rig = s.truth.rig;
+        s.plane_report.plane = s.truth.plane;
+      }
+      return s;
+    };
+    const CalibratedStation station = make_station(seed_, root / "station");
     std::string md = fmt::format("## flatscan evaluate: scene '{}', seed {}, side faces rendered {} and measured {}{}{}\n\n",
                                  scene.name, seed_, SideFaceModelName(scene.part.side_faces),
                                  SideFaceModelName(side_faces_), no_correction_ ? ", thickness correction OFF" : "",
@@ -148,6 +160,19 @@ class EvaluateCommand : public Command {
                        [&](int i) { return RenderBatchPart(station, batch_options_, i); });
       WriteImage((root / "batch_error_histogram.png").string(),
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
+      // Each part's uncertainty against its error, over --calibrations stations.
+      std::vector<std::vector<PartMeasurement>> stations = {study.parts};
+      std::vector<uint64_t> seeds = {seed_};
+      for (int k = 1; k < calibrations_; ++k) {
+        seeds.push_back(seed_ + k);
+        spdlog::info("uncertainty: station {} of {} (seed {})", k + 1, calibrations_, seeds.back());
+        BatchStudyOptions options = batch_options_;
+        options.seed = seeds.back();
+        const CalibratedStation other = make_station(seeds.back(), root / fmt::format("station_{}", seeds.back()));
+        stations.push_back(RunBatchStudy(other, options, ProgressLogger("uncertainty: part")).parts);
+      }
+      const UncertaintyValidation validation = ValidateUncertainty(stations, seeds);
+      add_section("uncertainty", UncertaintyMarkdown(validation), UncertaintyJson(validation));
     }
     if (rotation) {
       const RotationStudy study = RunRotationStudy(station, rotation_options_, ProgressLogger("rotation: part"));
@@ -176,6 +201,7 @@ class EvaluateCommand : public Command {
   double tolerance_ = FlatnessSpec::kDefaultToleranceMm;
   int calib_poses_ = kDefaultCalibrationPoses;
   int save_worst_ = 0;
+  int calibrations_ = 1;
 
   RepeatStudyOptions repeat_options_;
   RotationStudyOptions rotation_options_ = [] {

@@ -223,7 +223,8 @@ class InspectCommand : public Command {
     double total_ms = 0;
     const auto start = std::chrono::steady_clock::now();
     auto last_progress = start;
-    Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", "id", "flatness_mm", "coverage", "verdict", "note");
+    Text() << fmt::format("{:<24} {:>12} {:>15} {:>10} {:>9}  {}\n", "id", "flatness_mm", "uncertainty_mm", "coverage",
+                          "verdict", "note");
     ParallelInOrder<InspectionRecord>(
         pairs.size(), 2 * static_cast<size_t>(tbb::this_task_arena::max_concurrency()),
         [&](size_t i) { return MeasureBatchPart(rig, plane, base, pairs[i], overlay_names[i]); },
@@ -232,13 +233,14 @@ class InspectCommand : public Command {
             (record.judgement.pass() ? pass : fail)++;
             marginal += record.judgement.marginal;
             total_ms += record.TotalMs();
-            Text() << fmt::format("{:<24} {:>12.4f} {:>10.3f} {:>9}  {}\n", record.id, record.values.flatness_mm,
-                                  record.coverage, VerdictName(record.judgement.verdict),
+            Text() << fmt::format("{:<24} {:>12.4f} {:>15.4f} {:>10.3f} {:>9}  {}\n", record.id,
+                                  record.values.flatness_mm, record.uncertainty.expanded_mm, record.coverage,
+                                  VerdictName(record.judgement.verdict),
                                   record.judgement.marginal ? "marginal" : "");
           } else {
             ++unmeasured;
             spdlog::error("{}: not measured: {}", record.id, record.error);
-            Text() << fmt::format("{:<24} {:>12} {:>10} {:>9}  {}\n", record.id, "-", "-", "-", "not measured");
+            Text() << fmt::format("{:<24} {:>12} {:>15} {:>10} {:>9}  {}\n", record.id, "-", "-", "-", "-", "not measured");
           }
           if (lines) *lines << RecordToJson(record).dump() << "\n" << std::flush;
           const auto now = std::chrono::steady_clock::now();
@@ -258,20 +260,25 @@ class InspectCommand : public Command {
       if (file.fail()) ThrowInputError("--json '{}': write failed", json_);
     }
     Text() << fmt::format("{} parts: {} pass, {} fail, {} not measured{}\n", pairs.size(), pass, fail, unmeasured,
-                          spec_.guard_band_mm > 0
-                              ? fmt::format("; {} marginal (within {:.4f} mm of the tolerance)", marginal, spec_.guard_band_mm)
-                              : "");
+                          fmt::format("; {} marginal (within the larger of the {:.4f} mm guard band and their own "
+                                      "uncertainty of the tolerance)",
+                                      marginal, spec_.guard_band_mm));
     if (unmeasured > 0) return 2;
     return fail > 0 ? 1 : 0;
   }
 
   void PrintSummary(const InspectionRecord& r) const {
     Text() << fmt::format(
-        "flatness_mm {:.4f}  lsq_pv_mm {:.4f}  minzone_mm {:.4f}\nverdict {} (tolerance {:.3f} mm, thickness {:.3f} mm)\n"
+        "flatness_mm {:.4f}  lsq_pv_mm {:.4f}  minzone_mm {:.4f}\nuncertainty_mm {:.4f} (k = 2: rim {:.4f}, rig {:.4f}, "
+        "plane {:.4f}, method {:.4f} mm)\nverdict {} (tolerance {:.3f} mm, thickness {:.3f} mm)\n"
         "points: {} valid of {} matched ({} / {} crossings), coverage {:.3f}{}\ntime {:.1f} ms\n",
-        r.values.flatness_mm, r.values.lsq_pv_mm, r.values.minzone_mm,
+        r.values.flatness_mm, r.values.lsq_pv_mm, r.values.minzone_mm, r.uncertainty.expanded_mm, r.uncertainty.rim_mm,
+        r.uncertainty.rig_mm, r.uncertainty.plane_mm, r.uncertainty.method_mm,
         std::string(VerdictName(r.judgement.verdict)) +
-            (r.judgement.marginal ? fmt::format(" MARGINAL: within the {:.4f} mm guard band", r.spec.guard_band_mm) : ""),
+            (r.judgement.marginal
+                 ? fmt::format(" MARGINAL: within the {:.4f} mm guard band or the part's uncertainty of the tolerance",
+                               r.spec.guard_band_mm)
+                 : ""),
         r.spec.tolerance_mm, r.thickness_mm, r.valid, r.matched, r.crossings_left, r.crossings_right, r.coverage,
         r.completed > 0 ? fmt::format(" ({} outline points completed from the warp fit)", r.completed) : "", r.TotalMs());
   }

@@ -214,6 +214,36 @@ std::vector<double> RobustLocalQuadratic(const RimNeighbours& nb, const std::vec
   return out;
 }
 
+// kappa of RimHeights::noise_inflation: 1 + 2 sum_k rho_k over the lags k >= 1 while
+// rho_k > 0 (at most a quarter of the rim), rho_k the circular autocorrelation of the
+// weighted residuals along the ordered rim. Gross points count as 0, and residuals are
+// clipped at 3 robust spreads so that a real dent does not pass for correlated noise.
+double NoiseInflation(const HeightSamples& rim, const std::vector<double>& fitted, const std::vector<char>& gross) {
+  const int n = static_cast<int>(rim.size());
+  std::vector<double> r(n, 0.0), magnitude;
+  for (int i = 0; i < n; ++i) {
+    if (gross[i]) continue;
+    r[i] = (rim.heights[i] - fitted[i]) * std::sqrt(rim.weights[i]);
+    magnitude.push_back(std::abs(r[i]));
+  }
+  const double clip = 3 * 1.4826 * Median(std::move(magnitude));
+  if (!(clip > 0)) return 1.0;
+  double energy = 0;
+  for (double& v : r) {
+    v = std::clamp(v, -clip, clip);
+    energy += v * v;
+  }
+  double kappa = 1.0;
+  for (int lag = 1; lag <= n / 4; ++lag) {
+    double sum = 0;
+    for (int i = 0; i < n; ++i) sum += r[i] * r[(i + lag) % n];
+    const double rho = sum / energy;
+    if (!(rho > 0)) break;
+    kappa += 2 * rho;
+  }
+  return kappa;
+}
+
 }  // namespace
 
 WarpSurface::Vector WarpSurface::Basis(const Eigen::Vector3d& p) const {
@@ -285,11 +315,13 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
     robust[i] = !is_inner && k < rim_gross.size() && rim_gross[k] ? 0.0 : 1.0;
   }
   Eigen::VectorXd solution = Eigen::VectorXd::Zero(columns);
+  Eigen::MatrixXd ata;
+  Eigen::VectorXd row_weight, atb;
   double curvature_ridge = -1;  // absolute; the first pass takes the relative start value
   for (int pass = 0; pass <= options.robust_passes; ++pass) {
-    const Eigen::VectorXd row_weight = w.cwiseProduct(robust);
-    Eigen::MatrixXd ata = basis.transpose() * row_weight.asDiagonal() * basis;
-    const Eigen::VectorXd atb = basis.transpose() * row_weight.cwiseProduct(h);
+    row_weight = w.cwiseProduct(robust);
+    ata = basis.transpose() * row_weight.asDiagonal() * basis;
+    atb = basis.transpose() * row_weight.cwiseProduct(h);
     const double total = row_weight.sum();
     if (curvature_ridge < 0) curvature_ridge = options.curvature_ridge * total;
     for (int t = 1; t < 3; ++t) ata(t, t) += options.tilt_ridge * total;
@@ -310,17 +342,70 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
     }
   }
   s.coefficients_ = solution.head(kTerms);
+  // Posterior covariance s0^2 ata^-1 (HeightVariance), s0 the final residuals' robust
+  // spread per unit weight; the inner edges' offset is marginalised out (top-left block).
+  const Eigen::VectorXd z = (h - basis * solution).cwiseProduct(w.cwiseSqrt());
+  std::vector<double> abs_z;
+  for (Eigen::Index i = 0; i < z.size(); ++i)
+    if (robust[i] > 0) abs_z.push_back(std::abs(z[i]));
+  const double s0 = 1.4826 * Median(std::move(abs_z));
+  const Eigen::MatrixXd inverse = ata.ldlt().solve(Eigen::MatrixXd::Identity(columns, columns));
+  if (inverse.allFinite() && std::isfinite(s0)) s.covariance_ = s0 * s0 * inverse.topLeftCorner(kTerms, kTerms);
+  // Block jackknife: the fit again without each of kJackknifeBlocks contiguous stretches
+  // of the rim in turn (the final weights kept: the normal equations less the block's
+  // share), so errors correlated along the rim over less than a block count.
+  const int rim_rows = static_cast<int>(rim.size());
+  if (rim_rows >= 4 * kJackknifeBlocks) {
+    for (int b = 0; b < kJackknifeBlocks; ++b) {
+      const int begin = b * rim_rows / kJackknifeBlocks, end = (b + 1) * rim_rows / kJackknifeBlocks;
+      const auto rows = basis.middleRows(begin, end - begin);
+      const Eigen::VectorXd weights = row_weight.segment(begin, end - begin);
+      const Eigen::MatrixXd ata_b = ata - rows.transpose() * weights.asDiagonal() * rows;
+      const Eigen::VectorXd atb_b = atb - rows.transpose() * weights.cwiseProduct(h.segment(begin, end - begin));
+      const Eigen::VectorXd without = ata_b.ldlt().solve(atb_b);
+      if (!without.allFinite()) {
+        s.block_coefficients_.clear();
+        break;
+      }
+      s.block_coefficients_.push_back(without.head(kTerms));
+    }
+  }
   return s;
 }
+
+double WarpSurface::BlockJackknifeVariance(const Eigen::Vector3d& p) const {
+  const int g = static_cast<int>(block_coefficients_.size());
+  if (g < 2) return 0.0;
+  const Vector b = Basis(p);
+  double mean = 0, sum_squares = 0;
+  for (const Vector& c : block_coefficients_) mean += b.dot(c) / g;
+  for (const Vector& c : block_coefficients_) sum_squares += (b.dot(c) - mean) * (b.dot(c) - mean);
+  return (g - 1.0) / g * sum_squares;
+}
+
+double WarpSurface::HeightVariance(const Eigen::Vector3d& p) const {
+  const Vector b = Basis(p);
+  return std::max(0.0, b.dot(covariance_ * b));
+}
+
+double RimHeights::WarpVariance(const Eigen::Vector3d& p) const {
+  return std::max(noise_inflation * warp.HeightVariance(p), warp.BlockJackknifeVariance(p));
+}
+
+double RimHeights::HeightSd(const Eigen::Vector3d& p) const { return std::sqrt(WarpVariance(p)); }
 
 RimHeights EstimateRimHeights(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner,
                               const RimHeightOptions& options) {
   const std::vector<char> gross = FindGrossPoints(rim.heights);
-  RimHeights out{WarpSurface::FitRobust(plane, rim, inner, options.warp, gross), {}, {}, 0.0, 0};
+  RimHeights out;
+  out.warp = WarpSurface::FitRobust(plane, rim, inner, options.warp, gross);
   const int n = static_cast<int>(rim.size());
   out.heights.resize(n);
   for (int i = 0; i < n; ++i) out.heights[i] = out.warp.Height(rim.points[i]);
-  if (n < 10 || options.sigma_mm <= 0) return out;
+  if (n < 10 || options.sigma_mm <= 0) {
+    for (int i = 0; i < n; ++i) out.height_sd_mm.push_back(std::sqrt(out.warp.HeightVariance(rim.points[i])));
+    return out;
+  }
   std::vector<double> residual(n);
   for (int i = 0; i < n; ++i) residual[i] = rim.heights[i] - out.heights[i];
   std::vector<double> variance;
@@ -346,6 +431,13 @@ RimHeights EstimateRimHeights(const SupportPlane& plane, const HeightSamples& ri
     ++out.significant;
   }
   out.deviation_spread_mm = spread_sum / n;
+  out.noise_inflation = NoiseInflation(rim, out.heights, gross);
+  out.height_sd_mm.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const bool kept = std::abs(z[i]) > tau;
+    const double deviation_variance = kept ? z_spread * z_spread * variance[i] : 0.0;
+    out.height_sd_mm[i] = std::sqrt(out.WarpVariance(rim.points[i]) + deviation_variance);
+  }
   return out;
 }
 

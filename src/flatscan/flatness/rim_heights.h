@@ -95,6 +95,19 @@ class WarpSurface {
   static WarpSurface Fit(const SupportPlane& plane, const HeightSamples& rim, const HeightSamples& inner = {},
                          const WarpFitOptions& options = {}, const FaceCoupling* coupling = nullptr);
   double Height(const Eigen::Vector3d& p) const;
+  // Variance of Height(p) (mm^2) for independent point noise: b(p)' C b(p), C the
+  // posterior covariance of the coefficients of Bayesian least squares with the
+  // curvature prior, C = s0^2 (A' W A + ridge)^-1 (s0: the data's robust noise per unit
+  // weight). Where the points do not determine a term (a stretch of the rim along the
+  // epipolar rows missing) the prior's variance dominates, so a height completed
+  // there carries it. 0 before a fit.
+  double HeightVariance(const Eigen::Vector3d& p) const;
+  // Block-jackknife variance of Height(p): with W_b fitted without the b-th of g
+  // contiguous stretches of the rim, (g - 1) / g sum_b (W_b(p) - mean W_b(p))^2
+  // (Kunsch 1989). Unlike HeightVariance it needs no noise model: errors correlated
+  // along the rim (a ripple of the edge locations, the faces' model) move the fits
+  // without one block as they move the whole fit. 0 with fewer than 4 g rim points.
+  double BlockJackknifeVariance(const Eigen::Vector3d& p) const;
   // Unit normal of the surface at p, toward the cameras.
   Eigen::Vector3d SheetNormal(const Eigen::Vector3d& p) const;
   const SupportPlane& plane() const { return plane_; }
@@ -114,6 +127,9 @@ class WarpSurface {
   SupportPlane plane_;
   Eigen::Vector3d e1_, e2_, centre_ = Eigen::Vector3d::Zero();
   Vector coefficients_ = Vector::Zero();
+  Eigen::Matrix<double, kTerms, kTerms> covariance_ = Eigen::Matrix<double, kTerms, kTerms>::Zero();
+  static constexpr int kJackknifeBlocks = 16;
+  std::vector<Vector> block_coefficients_;
 };
 
 struct RimHeightOptions {
@@ -128,6 +144,23 @@ struct RimHeights {
   std::vector<double> deviation;  // d: the smoothed deviation from W, before the garrote
   double deviation_spread_mm = 0; // mean over the rim of d's standard deviation (its noise)
   int significant = 0;            // points where |d| > k r
+  // Standard uncertainty of heights[i] (mm): sqrt(var_W + sd_D^2), with var_W W's
+  // variance at the point (WarpVariance below), sd_D the kept deviation's
+  // standard deviation (d's, where the garrote keeps it; 0 elsewhere). A deviation smaller than the garrote's threshold is taken as none:
+  // the model's assumption, and what keeps d's noise out of the maximum (measured: a
+  // sparse, ill-conditioned stretch's d has an SD of up to 0.3 mm, so counting it at
+  // every point made U 7-10 times the actual error).
+  std::vector<double> height_sd_mm;
+  // kappa: W's variance assumes independent points, but neighbouring rim points share
+  // image noise and a short waviness. With rho_k the autocorrelation at lag k of the
+  // weighted residuals h - (W + D) along the rim, kappa = 1 + 2 sum rho_k (summed
+  // while rho_k > 0; >= 1): the variance of a mean of correlated values (Bartlett's
+  // effective sample size).
+  double noise_inflation = 1.0;
+  // W's variance at p: the larger of kappa var_W and the block jackknife's.
+  double WarpVariance(const Eigen::Vector3d& p) const;
+  // The same for a point off the measured rim (completed): sqrt(WarpVariance).
+  double HeightSd(const Eigen::Vector3d& p) const;
 };
 
 // Fits W, smooths the deviations and keeps the significant ones (see the top of this

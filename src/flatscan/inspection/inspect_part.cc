@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "flatscan/flatness/rim_heights.h"
+#include "flatscan/inspection/part_uncertainty.h"
 #include "flatscan/inspection/rim_points.h"
 #include "flatscan/inspection/stereo_outline.h"
 #include "flatscan/util/error.h"
@@ -116,9 +117,14 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
   // widths (lsq_pv, minzone) see the same rim as flatness_mm.
   std::vector<Eigen::Vector3d> rim_all = rim.points;
   std::vector<double> heights_all = heights.heights;
+  std::vector<RimHeightPoint> uncertain;  // every point of rim_all, for the part's uncertainty
+  std::vector<SeenPoint> seen;
   for (size_t j = 0; j < rim.size(); ++j) {
     rim_all[j] += (heights.heights[j] - rim.heights[j]) * plane.normal;
-    measured.points[measured.rim_point[j]].height_mm = heights.heights[j];
+    InspectedPoint& point = measured.points[measured.rim_point[j]];
+    point.height_mm = heights.heights[j];
+    uncertain.push_back({rim_all[j], heights.heights[j], heights.height_sd_mm[j], false});
+    seen.push_back({rim_all[j], point.left_raw, point.right_raw});
   }
   result.points = std::move(measured.points);
   timer.Mark("rim_heights");
@@ -151,6 +157,7 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
       if (h > measured_max + margin || h < measured_min - margin) continue;
       rim_all.push_back(bottom);
       heights_all.push_back(h);
+      uncertain.push_back({bottom, h, heights.HeightSd(bottom), true});
       ++result.completed;
     }
   }
@@ -159,6 +166,9 @@ InspectionResult InspectPart(const StereoRig& rig, const SupportPlane& plane, co
     ThrowInputError("{} and {}: the rim's heights could not be computed (not finite): check the rig and plane files",
                     left_name, right_name);
   timer.Mark("flatness");
+  result.uncertainty = EstimatePartUncertainty(rig, plane, uncertain, seen, params.uncertainty);
+  result.noise_inflation = heights.noise_inflation;
+  timer.Mark("uncertainty");
   return result;
 }
 

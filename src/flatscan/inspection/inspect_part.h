@@ -15,6 +15,7 @@
 #include "flatscan/calibration/stereo_rig.h"
 #include "flatscan/flatness/flatness_metrics.h"
 #include "flatscan/geometry/side_faces.h"
+#include "flatscan/inspection/part_uncertainty.h"
 #include "flatscan/reconstruction/rectified_stereo.h"
 #include "flatscan/reconstruction/stereo_matching.h"
 #include "flatscan/support_plane/support_plane.h"
@@ -76,6 +77,7 @@ struct InspectionParams {
   int coverage_max_gap_points = 28;
   ImageAcceptance acceptance;
   BoundaryOptions boundary;
+  UncertaintyOptions uncertainty;  // of each part's flatness_mm (inspection/part_uncertainty.h)
 };
 
 struct InspectedPoint {
@@ -94,6 +96,8 @@ struct InspectionResult {
   double side_tilt_rad = 0.0;    // estimated tilt of the side faces at the footprint centre from the support normal
   double max_face_tilt_rad = 0.0;  // the largest over the rim (side_faces local)
   double rim_noise_mm = 0.0;     // mean standard deviation of the smoothed deviations from the warp surface
+  double noise_inflation = 1.0;  // kappa of flatness/rim_heights.h: the rim noise's correlation along the rim
+  PartUncertainty uncertainty;   // of flatness_mm (inspection/part_uncertainty.h)
   int local_deviations = 0;      // rim points whose deviation from the warp surface stands out
   double blur_left_px = 0, blur_right_px = 0;
   std::vector<InspectedPoint> points;  // valid points

@@ -11,6 +11,9 @@ using nlohmann::json;
 
 // Below this coverage the record warns that part of the outline came from the warp fit.
 constexpr double kWarnCoverage = 0.9;
+// What a part should be turned to the camera baseline for its outline to be measured
+// (its sides then cross the epipolar rows; evaluate --rotation-step measures it).
+constexpr int kPresentTurnedDeg = 10;
 
 InspectionRecord BaseRecord(const InspectionParams& params, const FlatnessSpec& spec, const InspectionInputs& inputs) {
   InspectionRecord r;
@@ -67,7 +70,8 @@ InspectionRecord MeasuredRecord(const InspectionResult& result, const Inspection
   InspectionRecord r = BaseRecord(params, spec, inputs);
   r.measured = true;
   r.values = result.values;
-  r.judgement = Judge(result.values.flatness_mm, spec);
+  r.uncertainty = result.uncertainty;
+  r.judgement = Judge(result.values.flatness_mm, spec, result.uncertainty.expanded_mm);
   r.coverage = result.coverage;
   r.crossings_left = result.crossings_left;
   r.crossings_right = result.crossings_right;
@@ -84,8 +88,16 @@ InspectionRecord MeasuredRecord(const InspectionResult& result, const Inspection
   if (result.coverage < kWarnCoverage)
     r.warnings.push_back(fmt::format(
         "only {:.0f}% of the outline was measured: stretches running along the epipolar rows cannot be matched and "
-        "were completed from the fitted warp; turn the part at least 10 degrees to the camera baseline for a full "
-        "measurement", 100 * result.coverage));
+        "were completed from the fitted warp; turn the part at least {} degrees to the camera baseline for a full "
+        "measurement", 100 * result.coverage, kPresentTurnedDeg));
+  if (result.uncertainty.maximum_unmeasured)
+    r.warnings.push_back(fmt::format(
+        "the maximum may lie in a stretch of the outline the cameras cannot measure (along the epipolar rows): "
+        "present the part turned at least {} degrees to the camera baseline", kPresentTurnedDeg));
+  if (result.uncertainty.rig_replicates == 0)
+    r.warnings.push_back(
+        "the rig file has no calibration replicates (imported, or written before they existed): uncertainty_mm "
+        "leaves out the rig calibration's share; calibrate the rig with calibrate-rig to include it");
   return r;
 }
 
@@ -108,7 +120,15 @@ json RecordToJson(const InspectionRecord& r) {
   j["flatness_mm"] = NullUnless(m, r.values.flatness_mm);
   j["lsq_pv_mm"] = NullUnless(m, r.values.lsq_pv_mm);
   j["minzone_mm"] = NullUnless(m, r.values.minzone_mm);
+  j["uncertainty_mm"] = NullUnless(m, r.uncertainty.expanded_mm);
   j["coverage"] = NullUnless(m, r.coverage);
+  j["uncertainty"] = NullUnless(m, json{{"coverage_factor", 2},
+                                        {"rim_mm", r.uncertainty.rim_mm},
+                                        {"rig_mm", r.uncertainty.rig_mm},
+                                        {"plane_mm", r.uncertainty.plane_mm},
+                                        {"method_mm", r.uncertainty.method_mm},
+                                        {"rig_replicates", r.uncertainty.rig_replicates},
+                                        {"maximum_unmeasured", r.uncertainty.maximum_unmeasured}});
   j["tolerance_mm"] = r.spec.tolerance_mm;
   j["guard_band_mm"] = r.spec.guard_band_mm;
   j["thickness_mm"] = r.thickness_mm;
@@ -142,6 +162,15 @@ InspectionRecord RecordFromJson(const json& j) {
   if (r.measured) {
     r.values = {in.Number("flatness_mm"), in.Number("lsq_pv_mm"), in.Number("minzone_mm")};
     r.coverage = in.Number("coverage");
+    r.uncertainty.expanded_mm = in.Number("uncertainty_mm");
+    const json& u = in.At("uncertainty", "an object");
+    r.uncertainty.rim_mm = in.Get<double>(u.value("rim_mm", json()), "uncertainty.rim_mm", "a number");
+    r.uncertainty.rig_mm = in.Get<double>(u.value("rig_mm", json()), "uncertainty.rig_mm", "a number");
+    r.uncertainty.plane_mm = in.Get<double>(u.value("plane_mm", json()), "uncertainty.plane_mm", "a number");
+    r.uncertainty.method_mm = in.Get<double>(u.value("method_mm", json()), "uncertainty.method_mm", "a number");
+    r.uncertainty.rig_replicates = in.Integer(u.value("rig_replicates", json()), "uncertainty.rig_replicates");
+    r.uncertainty.maximum_unmeasured =
+        in.Get<bool>(u.value("maximum_unmeasured", json()), "uncertainty.maximum_unmeasured", "true or false");
     const std::string verdict = in.String(in.At("verdict", "\"pass\" or \"fail\""), "verdict");
     if (verdict != "pass" && verdict != "fail")
       ThrowInputError("inspection record: key 'verdict' must be \"pass\" or \"fail\", found \"{}\"", verdict);

@@ -9,9 +9,16 @@
 //   measured           true when the part was measured
 //   error              why it was not measured (null when measured)
 //   verdict            "pass" or "fail"; null when not measured
-//   marginal           |flatness_mm - tolerance_mm| <= guard_band_mm; false when not measured
+//   marginal           |flatness_mm - tolerance_mm| <= max(guard_band_mm, uncertainty_mm); false
+//                      when not measured
 //   flatness_mm, lsq_pv_mm, minzone_mm    the three flatness values (null when not measured)
+//   uncertainty_mm     U: expanded uncertainty of flatness_mm (k = 2, about 95%;
+//                      inspection/part_uncertainty.h); null when not measured
 //   coverage           fraction of the outline measured (null when not measured)
+//   uncertainty        {coverage_factor (2), rim_mm, rig_mm, plane_mm, method_mm (standard
+//                      uncertainties), rig_replicates (0: the rig file has none and
+//                      rig_mm is left out), maximum_unmeasured (the maximum may lie in a
+//                      stretch the cameras cannot measure)}; null when not measured
 //   tolerance_mm, guard_band_mm, thickness_mm, thickness_correction    what it was judged
 //                      and measured with
 //   points             {crossings_left, crossings_right, matched, valid, completed}
@@ -51,6 +58,7 @@ struct InspectionRecord {
   FlatnessValues values;           // when measured
   Judgement judgement;             // when measured
   double coverage = 0;             // when measured
+  PartUncertainty uncertainty;     // when measured
   FlatnessSpec spec;
   double thickness_mm = 0;
   bool thickness_correction = true;

@@ -26,6 +26,11 @@ InspectionResult SomeResult(double flatness_mm, double coverage) {
   r.blur_left_px = 1.01;
   r.blur_right_px = 0.99;
   r.timing_ms = {{"boundary_left", 1.5}, {"matching", 1.7}};
+  r.uncertainty.expanded_mm = 0.0061;
+  r.uncertainty.rim_mm = 0.0021;
+  r.uncertainty.rig_mm = 0.0019;
+  r.uncertainty.plane_mm = 0.0002;
+  r.uncertainty.rig_replicates = 14;
   return r;
 }
 
@@ -42,7 +47,8 @@ std::set<std::string> Keys(const nlohmann::json& j) {
 const std::set<std::string> kRecordKeys = {
     "id",          "measured",      "error",        "verdict",      "marginal",    "flatness_mm", "lsq_pv_mm",
     "minzone_mm",  "coverage",      "tolerance_mm", "guard_band_mm", "thickness_mm", "thickness_correction",
-    "points",      "rim_model",     "blur_sigma_px", "timing_ms",    "inputs",      "warnings"};
+    "points",      "rim_model",     "blur_sigma_px", "timing_ms",    "inputs",      "warnings",
+    "uncertainty_mm", "uncertainty"};
 
 TEST(InspectionRecord, MeasuredRecordHasEveryKeyAndRoundTrips) {
   InspectionParams params;
@@ -70,6 +76,11 @@ TEST(InspectionRecord, MeasuredRecordHasEveryKeyAndRoundTrips) {
   EXPECT_EQ(j["rim_model"]["side_faces"], "centre");
   EXPECT_EQ(back.side_faces, SideFaceModel::kCentreNormal);
   EXPECT_EQ(back.max_face_tilt_rad, 0.0456);
+  EXPECT_EQ(j["uncertainty_mm"], 0.0061);
+  EXPECT_EQ(j["uncertainty"]["coverage_factor"], 2);
+  EXPECT_EQ(back.uncertainty.rig_mm, 0.0019);
+  EXPECT_EQ(back.uncertainty.rig_replicates, 14);
+  EXPECT_FALSE(back.uncertainty.maximum_unmeasured);
   nlohmann::json bad = j;
   bad["rim_model"]["side_faces"] = "sideways";
   EXPECT_EQ(testing::InputErrorOf([&] { RecordFromJson(bad); }).rfind(
@@ -86,9 +97,35 @@ TEST(InspectionRecord, NotMeasuredHasNoVerdictAndNoValues) {
   EXPECT_EQ(j["marginal"], false);
   EXPECT_TRUE(j["flatness_mm"].is_null());
   EXPECT_TRUE(j["coverage"].is_null());
+  EXPECT_TRUE(j["uncertainty_mm"].is_null());
+  EXPECT_TRUE(j["uncertainty"].is_null());
   EXPECT_EQ(j["error"], "l.png: no part found");
   EXPECT_EQ(j["id"], "part_007");
   EXPECT_EQ(RecordToJson(RecordFromJson(j)), j);
+}
+
+// A part is marginal within its own uncertainty of the tolerance, even without a guard
+// band; a maximum that may lie in an unmeasured stretch, and a rig without replicates,
+// are said in the warnings.
+TEST(InspectionRecord, MarginalWithinThePartsOwnUncertainty) {
+  InspectionResult result = SomeResult(0.105, 1.0);
+  result.uncertainty.expanded_mm = 0.006;
+  EXPECT_TRUE(MeasuredRecord(result, {}, {0.1, 0.0}, kInputs).judgement.marginal);
+  result.uncertainty.expanded_mm = 0.004;
+  const InspectionRecord decided = MeasuredRecord(result, {}, {0.1, 0.0}, kInputs);
+  EXPECT_FALSE(decided.judgement.marginal);
+  EXPECT_EQ(decided.judgement.verdict, Verdict::kFail);
+  EXPECT_TRUE(decided.warnings.empty());
+
+  result.uncertainty.maximum_unmeasured = true;
+  result.uncertainty.rig_replicates = 0;
+  const InspectionRecord warned = MeasuredRecord(result, {}, {0.1, 0.0}, kInputs);
+  ASSERT_EQ(warned.warnings.size(), 2u);
+  EXPECT_EQ(warned.warnings[0],
+            "the maximum may lie in a stretch of the outline the cameras cannot measure (along the epipolar rows): "
+            "present the part turned at least 10 degrees to the camera baseline");
+  EXPECT_EQ(warned.warnings[1].rfind("the rig file has no calibration replicates", 0), 0u);
+  EXPECT_EQ(RecordToJson(warned)["uncertainty"]["maximum_unmeasured"], true);
 }
 
 TEST(InspectionRecord, ReaderNamesTheKey) {

@@ -148,7 +148,8 @@ std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
                     static_cast<int>(std::min<uint32_t>(BigEndian(h + 20, 4), INT32_MAX)));
   if (h[0] == 'B' && h[1] == 'M') {  // BITMAPINFOHEADER: signed width, height (negative: top-down)
     const int32_t w = static_cast<int32_t>(LittleEndian(h + 18, 4)), hh = static_cast<int32_t>(LittleEndian(h + 22, 4));
-    return cv::Size(std::abs(w), hh == INT32_MIN ? INT32_MAX : std::abs(hh));
+    auto magnitude = [](int32_t v) { return v == INT32_MIN ? INT32_MAX : std::abs(v); };  // -INT32_MIN overflows
+    return cv::Size(magnitude(w), magnitude(hh));
   }
   if (h[0] == 0xFF && h[1] == 0xD8) return JpegSize(in);
   if (h[0] == 'P' && (h[1] == '2' || h[1] == '3' || h[1] == '5' || h[1] == '6')) return NetpbmSize(in);

@@ -297,6 +297,64 @@ cv::Mat ToCv(const Eigen::MatrixXd& m) {
   return out;
 }
 
+// The rig file's `replicates` (StereoRig::replicates): one row per replicate of
+// kReplicateColumns values: fx1 fy1 cx1 cy1 k1..k6 p1 p2 in OpenCV's order (the 8
+// distortion coefficients k1 k2 p1 p2 k3 k4 k5 k6) for camera 1, the same for camera 2,
+// then R as a Rodrigues vector (rad) and T (mm).
+constexpr int kReplicateColumns = 30;
+constexpr const char* kReplicatesMeaning =
+    "jackknife replicates of the calibration, one row each: fx1 fy1 cx1 cy1 D1 (8 values) fx2 fy2 cx2 cy2 D2 (8 "
+    "values) R (Rodrigues vector, rad) T (mm)";
+
+cv::Mat ReplicatesMatrix(const std::vector<RigReplicate>& replicates) {
+  cv::Mat out(static_cast<int>(replicates.size()), kReplicateColumns, CV_64F);
+  for (int i = 0; i < out.rows; ++i) {
+    const RigReplicate& r = replicates[i];
+    double* row = out.ptr<double>(i);
+    int c = 0;
+    for (const Camera* camera : {&r.left, &r.right}) {
+      for (const double v : {camera->fx, camera->fy, camera->cx, camera->cy}) row[c++] = v;
+      for (const double v : camera->dist) row[c++] = v;
+    }
+    const Eigen::AngleAxisd angle_axis(r.cam2_from_cam1.rotation);
+    const Eigen::Vector3d rotation = angle_axis.angle() * angle_axis.axis();
+    for (int k = 0; k < 3; ++k) row[c++] = rotation[k];
+    for (int k = 0; k < 3; ++k) row[c++] = r.cam2_from_cam1.translation[k];
+  }
+  return out;
+}
+
+std::vector<RigReplicate> ReadReplicates(const KeyReader& in, int width, int height) {
+  const std::string shape = fmt::format("an Nx{} matrix", kReplicateColumns);
+  const cv::Mat m = in.ReadMatrix("replicates", kReplicatesMeaning, shape);
+  if (m.cols != kReplicateColumns || m.rows < 1) in.Fail("replicates", "must be {}, found {}", shape, ShapeOf(m));
+  std::vector<RigReplicate> out(m.rows);
+  for (int i = 0; i < m.rows; ++i) {
+    const double* row = m.ptr<double>(i);
+    int c = 0;
+    for (Camera* camera : {&out[i].left, &out[i].right}) {
+      camera->width = width;
+      camera->height = height;
+      camera->fx = row[c++];
+      camera->fy = row[c++];
+      camera->cx = row[c++];
+      camera->cy = row[c++];
+      for (double& v : camera->dist) v = row[c++];
+      if (!(camera->fx > 0 && camera->fy > 0))
+        in.Fail("replicates", "row {} must have positive focal lengths, found fx = {}, fy = {}", i + 1, camera->fx,
+                camera->fy);
+    }
+    const Eigen::Vector3d rotation(row[c], row[c + 1], row[c + 2]);
+    const double angle = rotation.norm();
+    out[i].cam2_from_cam1.rotation =
+        angle > 0 ? Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+    out[i].cam2_from_cam1.translation = Eigen::Vector3d(row[c + 3], row[c + 4], row[c + 5]);
+    if (out[i].cam2_from_cam1.translation.norm() < kMinBaselineMm)
+      in.Fail("replicates", "row {} has a baseline below {} mm", i + 1, kMinBaselineMm);
+  }
+  return out;
+}
+
 }  // namespace
 
 StereoRig ReadRigFile(const fs::path& path) {
@@ -309,6 +367,7 @@ StereoRig ReadRigFile(const fs::path& path) {
       in.Fail("units", "must be \"mm\" (optional; translations are in millimetres)");
   }
   StereoRig rig = ReadRigCore(in, in, width, height);
+  if (in.Has("replicates")) rig.replicates = ReadReplicates(in, width, height);
 
   int present = 0;
   for (const RectificationKey& k : kRectificationKeys) present += in.Has(k.key) ? 1 : 0;
@@ -370,6 +429,7 @@ void WriteRigFile(const fs::path& path, const StereoRig& rig_in) {
     out << "R1" << as64(r.R1) << "R2" << as64(r.R2) << "P1" << as64(r.P1) << "P2" << as64(r.P2)
         << "Q" << as64(r.Q);
     out << "units" << "mm";
+    if (!rig.replicates.empty()) out << "replicates" << ReplicatesMatrix(rig.replicates);
     out.release();
   });
 }

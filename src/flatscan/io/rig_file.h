@@ -4,7 +4,10 @@
 // Rig file keys: image_width, image_height (int); M1, D1, M2, D2 (camera matrices and
 // distortion vectors, 1xN or Nx1 with N in {4, 5, 8}); R (3x3), T (3x1, mm) with
 // X2 = R X1 + T; optionally R1 R2 P1 P2 Q (recomputed when absent). These are the
-// names OpenCV's stereo_calib sample writes.
+// names OpenCV's stereo_calib sample writes. Optionally `replicates` (written by
+// calibrate-rig): the jackknife replicates of the calibration (StereoRig::replicates),
+// an Nx30 matrix, one row each: fx1 fy1 cx1 cy1, D1 as 8 values (k1 k2 p1 p2 k3 k4 k5
+// k6), the same for camera 2, R as a Rodrigues vector (rad), T (mm).
 //
 // Plane file keys: normal (3x1 unit, camera-1 frame, toward the cameras), point (3x1),
 // markers (Nx3 marker centres), residuals (Nx1, mm), rig_sha256 (SHA-256 of the bytes of

@@ -197,6 +197,38 @@ TEST_F(RigFile, RoundTrip) {
   EXPECT_EQ(entries, 1);
 }
 
+// The jackknife replicates (StereoRig::replicates) round-trip through `replicates`, one
+// row of 30 values each; a wrong shape or a replicate without a baseline is named.
+TEST_F(RigFile, ReplicatesRoundTripAndBadOnesAreNamed) {
+  StereoRig with = rig_;
+  for (int i = 0; i < 3; ++i) {
+    RigReplicate r{rig_.left, rig_.right, rig_.cam2_from_cam1};
+    r.left.fx += i;
+    r.right.dist[1] += 0.001 * i;
+    r.cam2_from_cam1.rotation = Eigen::AngleAxisd(1e-4 * i, Eigen::Vector3d::UnitY()) * r.cam2_from_cam1.rotation;
+    r.cam2_from_cam1.translation.x() += 0.01 * i;
+    with.replicates.push_back(r);
+  }
+  WriteRigFile(path_, with);
+  const StereoRig read = ReadRigFile(path_);
+  ASSERT_EQ(read.replicates.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    const RigReplicate &a = read.replicates[i], &b = with.replicates[i];
+    EXPECT_EQ(a.left.fx, b.left.fx);
+    EXPECT_EQ(a.right.dist, b.right.dist);
+    EXPECT_EQ(a.left.width, rig_.left.width);
+    EXPECT_LT((a.cam2_from_cam1.rotation - b.cam2_from_cam1.rotation).cwiseAbs().maxCoeff(), 1e-15);
+    EXPECT_EQ(a.cam2_from_cam1.translation, b.cam2_from_cam1.translation);
+  }
+  EXPECT_TRUE(ReadRigFile((WriteRigFile(path_, rig_), path_)).replicates.empty());  // optional
+  EXPECT_EQ(ReadError(RigKeys(rig_, true).Set("replicates", cv::Mat(cv::Mat::ones(2, 29, CV_64F)))),
+            Expected("key 'replicates' must be an Nx30 matrix, found 2x29"));
+  cv::Mat no_baseline = cv::Mat::ones(1, 30, CV_64F);
+  no_baseline.colRange(27, 30) = 0.0;
+  EXPECT_EQ(ReadError(RigKeys(rig_, true).Set("replicates", no_baseline)),
+            Expected("key 'replicates' row 1 has a baseline below 1 mm"));
+}
+
 TEST_F(RigFile, WriteComputesMissingRectification) {
   StereoRig rig = ReferenceRig();
   ASSERT_TRUE(rig.rectification.empty());
