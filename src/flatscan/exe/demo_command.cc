@@ -64,17 +64,18 @@ class DemoCommand : public Command {
     const DatasetStudy study = RunDatasetStudy(station, output_, options_);
     std::cout << fmt::format("4. inspected every part with the calibrated rig and plane (tolerance {:.3f} mm):\n",
                              options_.tolerance_mm);
-    std::cout << fmt::format("   {:<10} {:>9} {:>10} {:>10} {:>9} {:>7} {:>9} {:>9}\n", "part", "true_mm", "measured", "error_um",
-                             "coverage", "truth", "verdict", "time_ms");
+    std::cout << fmt::format("   {:<10} {:>9} {:>10} {:>10} {:>6} {:>9} {:>7} {:>9} {:>9}\n", "part", "true_mm", "measured",
+                             "error_um", "U_um", "coverage", "truth", "verdict", "time_ms");
     for (const PartMeasurement& m : study.parts) {
       const char* truth = VerdictName(Judge(m.true_flatness_mm, {options_.tolerance_mm}).verdict);
       if (m.measured)
-        std::cout << fmt::format("   {:<10} {:>9.4f} {:>10.4f} {:>+10.1f} {:>9.3f} {:>7} {:>9} {:>9.1f}\n", m.id,
-                                 m.true_flatness_mm, m.values.flatness_mm, 1000 * m.ErrorMm(), m.coverage, truth,
-                                 m.pass ? "pass" : "fail", m.inspect_ms);
+        std::cout << fmt::format("   {:<10} {:>9.4f} {:>10.4f} {:>+10.1f} {:>6.1f} {:>9.3f} {:>7} {:>9} {:>9.1f}\n", m.id,
+                                 m.true_flatness_mm, m.values.flatness_mm, 1000 * m.ErrorMm(),
+                                 1000 * m.uncertainty.expanded_mm, m.coverage, truth, m.pass ? "pass" : "fail",
+                                 m.inspect_ms);
       else
-        std::cout << fmt::format("   {:<10} {:>9.4f} {:>10} {:>10} {:>9} {:>7} {:>9}   {}\n", m.id, m.true_flatness_mm, "-",
-                                 "-", "-", truth, "-", m.error);
+        std::cout << fmt::format("   {:<10} {:>9.4f} {:>10} {:>10} {:>6} {:>9} {:>7} {:>9}   {}\n", m.id, m.true_flatness_mm,
+                                 "-", "-", "-", "-", truth, "-", m.error);
     }
     std::cout << fmt::format("{} of {} parts measured, {} verdicts agree with the truth; total {:.1f} s\n",
                              study.errors.count, study.parts.size(), study.agree, Seconds(start));
