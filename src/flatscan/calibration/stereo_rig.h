@@ -36,7 +36,8 @@ struct StereoRig {
   Rectification rectification;
   // Jackknife replicates of the calibration, one per chessboard pair left out; their
   // scatter is the calibration's own uncertainty (inspection/part_uncertainty.h).
-  // Empty for a rig whose file does not carry them (imported, or written before).
+  // Empty for a rig whose file does not carry them (imported, written before, or
+  // calibrated from fewer than 4 pairs).
   std::vector<RigReplicate> replicates;
 
   // Fills `rectification` from the cameras and the relative pose.

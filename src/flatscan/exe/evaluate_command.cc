@@ -99,6 +99,9 @@ class EvaluateCommand : public Command {
     if (!repeat_ && batch_options_.parts <= 0 && !rotation)
       ThrowInputError("evaluate: expected --repeat, --batch N and/or --rotation-step DEG (for example: flatscan evaluate "
                       "--repeat --batch 1000)");
+    if (calibrations_ > 1 && batch_options_.parts <= 0)
+      ThrowInputError("evaluate: --calibrations {} validates the batch study's uncertainties: give --batch N too",
+                      calibrations_);
     if (batch_options_.parts > 0) CheckLotSpec(batch_options_.lot, tolerance_);
     SceneConfig scene = LoadScene(preset_, scene_file_);
     scene.board.poses = calib_poses_;

@@ -101,6 +101,11 @@ TEST(EvaluateCommand, BadInputExitsTwoWithoutOutput) {
   r = RunFlatscan("evaluate --batch 3 --tolerance 0.001 -o " + out.string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--tolerance: expected a value between 0.005 and 0.6 mm, got 0.001"), std::string::npos) << r.err;
+  r = RunFlatscan("evaluate --repeat --calibrations 3 -o " + out.string());  // never silently ignored
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("evaluate: --calibrations 3 validates the batch study's uncertainties: give --batch N too"),
+            std::string::npos)
+      << r.err;
   EXPECT_FALSE(std::filesystem::exists(out));
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }

@@ -96,8 +96,9 @@ InspectionRecord MeasuredRecord(const InspectionResult& result, const Inspection
         "present the part turned at least {} degrees to the camera baseline", kPresentTurnedDeg));
   if (result.uncertainty.rig_replicates == 0)
     r.warnings.push_back(
-        "the rig file has no calibration replicates (imported, or written before they existed): uncertainty_mm "
-        "leaves out the rig calibration's share; calibrate the rig with calibrate-rig to include it");
+        "the rig file has no calibration replicates (imported, written before they existed, or calibrated from "
+        "fewer than 4 pairs): uncertainty_mm leaves out the rig calibration's share; calibrate the rig with "
+        "calibrate-rig from 4 or more pairs to include it");
   return r;
 }
 
