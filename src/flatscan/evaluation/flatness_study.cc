@@ -15,6 +15,7 @@
 #include "flatscan/simulation/dataset.h"
 #include "flatscan/simulation/truth_file.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/statistics.h"
 
 namespace flatscan {
 namespace {
@@ -96,13 +97,6 @@ std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, cons
                                           const StudyOptions& options, const StudyProgress& progress) {
   return MeasureInParallel(
       jobs.size(), [&](size_t i) { return MeasureShot(station, jobs[i], options); }, progress);
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // Nearest-rank percentile of sorted values, q in (0, 1].

@@ -6,16 +6,10 @@
 #include <fmt/format.h>
 
 #include "flatscan/util/error.h"
+#include "flatscan/util/statistics.h"
 
 namespace flatscan {
 namespace {
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
 
 UncertaintyRow Summarize(const std::string& label, const std::vector<const PartMeasurement*>& parts) {
   UncertaintyRow row;

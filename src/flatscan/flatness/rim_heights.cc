@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include "flatscan/util/statistics.h"
+
 namespace flatscan {
 namespace {
 
@@ -34,7 +36,9 @@ class GaussianOfSquare {
   double table_[kSize + 2];
 };
 
-double Median(std::vector<double> values) {
+// The upper median (the middle value; for an even count the higher of the middle two),
+// by selection: the robust spreads here take it.
+double UpperMedian(std::vector<double> values) {
   if (values.empty()) return 0.0;
   const size_t half = values.size() / 2;
   std::nth_element(values.begin(), values.begin() + half, values.end());
@@ -84,7 +88,7 @@ std::vector<char> FindGrossPoints(const std::vector<double>& heights) {
   const std::vector<double> far_median = CircularMedians(heights, std::min(kFarHalf, (n - 1) / 2));
   std::vector<double> deviation(n);
   for (int i = 0; i < n; ++i) deviation[i] = std::abs(heights[i] - near_median[i]);
-  const double threshold = std::max(10 * 1.4826 * Median(deviation), 0.02);
+  const double threshold = std::max(10 * 1.4826 * UpperMedian(deviation), 0.02);
   for (int i = 0; i < n; ++i)
     gross[i] = deviation[i] > threshold || std::abs(heights[i] - far_median[i]) > kFarMm || heights[i] < -kBelowPlaneMm;
   return gross;
@@ -203,7 +207,7 @@ std::vector<double> RobustLocalQuadratic(const RimNeighbours& nb, const std::vec
     }
     if (last) break;
     for (int i = 0; i < n; ++i) abs_z[i] = std::abs((values[i] - out[i]) * std::sqrt(weights[i]));
-    const double spread = 1.4826 * Median(abs_z);
+    const double spread = 1.4826 * UpperMedian(abs_z);
     if (!(spread > 0)) break;
     // Gross points stay out: an isolated pair of them would otherwise be readmitted by
     // a fit they dominate (measured: two mismatched crossings between two gaps carried a
@@ -226,7 +230,7 @@ double NoiseInflation(const HeightSamples& rim, const std::vector<double>& fitte
     r[i] = (rim.heights[i] - fitted[i]) * std::sqrt(rim.weights[i]);
     magnitude.push_back(std::abs(r[i]));
   }
-  const double clip = 3 * 1.4826 * Median(std::move(magnitude));
+  const double clip = 3 * 1.4826 * UpperMedian(std::move(magnitude));
   if (!(clip > 0)) return 1.0;
   double energy = 0;
   for (double& v : r) {
@@ -333,7 +337,7 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
     const Eigen::VectorXd z = (h - basis * solution).cwiseProduct(w.cwiseSqrt());
     std::vector<double> abs_z(n);
     for (size_t i = 0; i < n; ++i) abs_z[i] = std::abs(z[i]);
-    const double spread = 1.4826 * Median(std::move(abs_z));
+    const double spread = 1.4826 * UpperMedian(std::move(abs_z));
     if (!(spread > 0)) break;
     if (options.curvature_prior_mm > 0) curvature_ridge = (spread / options.curvature_prior_mm) * (spread / options.curvature_prior_mm);
     for (size_t i = 0; i < n; ++i) {
@@ -348,7 +352,7 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
   std::vector<double> abs_z;
   for (Eigen::Index i = 0; i < z.size(); ++i)
     if (robust[i] > 0) abs_z.push_back(std::abs(z[i]));
-  const double s0 = 1.4826 * Median(std::move(abs_z));
+  const double s0 = 1.4826 * UpperMedian(std::move(abs_z));
   const Eigen::MatrixXd inverse = ata.ldlt().solve(Eigen::MatrixXd::Identity(columns, columns));
   if (inverse.allFinite() && std::isfinite(s0)) s.covariance_ = s0 * s0 * inverse.topLeftCorner(kTerms, kTerms);
   // Block jackknife: the fit again without each of kJackknifeBlocks contiguous stretches
@@ -374,13 +378,10 @@ WarpSurface WarpSurface::FitRobust(const SupportPlane& plane, const HeightSample
 }
 
 double WarpSurface::BlockJackknifeVariance(const Eigen::Vector3d& p) const {
-  const int g = static_cast<int>(block_coefficients_.size());
-  if (g < 2) return 0.0;
   const Vector b = Basis(p);
-  double mean = 0, sum_squares = 0;
-  for (const Vector& c : block_coefficients_) mean += b.dot(c) / g;
-  for (const Vector& c : block_coefficients_) sum_squares += (b.dot(c) - mean) * (b.dot(c) - mean);
-  return (g - 1.0) / g * sum_squares;
+  std::vector<double> heights;
+  for (const Vector& c : block_coefficients_) heights.push_back(b.dot(c));
+  return JackknifeVariance(heights);
 }
 
 double WarpSurface::HeightVariance(const Eigen::Vector3d& p) const {
@@ -421,7 +422,7 @@ RimHeights EstimateRimHeights(const SupportPlane& plane, const HeightSamples& ri
     z[i] = out.deviation[i] / std::sqrt(variance[i]);
     if (!gross[i]) magnitude.push_back(std::abs(z[i]));
   }
-  const double z_spread = 1.4826 * Median(std::move(magnitude));
+  const double z_spread = 1.4826 * UpperMedian(std::move(magnitude));
   const double tau = options.significance * z_spread;
   double spread_sum = 0;
   for (int i = 0; i < n; ++i) {

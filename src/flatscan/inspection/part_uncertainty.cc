@@ -6,8 +6,10 @@
 
 #include <Eigen/Dense>
 
+#include "flatscan/flatness/rim_heights.h"
 #include "flatscan/support_plane/plane_calibration.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/statistics.h"
 
 namespace flatscan {
 namespace {
@@ -43,14 +45,7 @@ double RigHeightSd(const StereoRig& rig, const SupportPlane& plane, const Eigen:
     const double h = HeightUnder(rig, replicate, plane, left_raw, right_raw);
     if (std::isfinite(h)) heights.push_back(h);
   }
-  if (heights.size() < 2) return 0.0;
-  double mean = 0;
-  for (const double h : heights) mean += h;
-  mean /= static_cast<double>(heights.size());
-  double sum_squares = 0;
-  for (const double h : heights) sum_squares += (h - mean) * (h - mean);
-  const double m = static_cast<double>(heights.size());
-  return std::sqrt((m - 1) / m * sum_squares);
+  return std::sqrt(JackknifeVariance(heights));
 }
 
 double HeightPerDisparityPx(const StereoRig& rig, const SupportPlane& plane, const Eigen::Vector2d& left_raw,
@@ -70,7 +65,7 @@ double PlaneHeightSd(const SupportPlane& plane, const Eigen::Vector3d& p) {
   for (const double r : plane.residuals_mm) sum_squares += r * r;
   const double variance = sum_squares / (n - 3);
   // In-plane offsets from the markers' centroid.
-  const Eigen::Vector3d e1 = plane.normal.unitOrthogonal(), e2 = plane.normal.cross(e1);
+  const auto [e1, e2] = PlaneAxes(plane);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& m : plane.markers) centroid += m;
   centroid /= n;
