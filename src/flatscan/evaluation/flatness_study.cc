@@ -36,10 +36,16 @@ struct ShotJob {
   uint64_t noise_seed = 0;
 };
 
+// The pair with the image defects the station's scene turns on (none by default),
+// drawn from their own seed so that the parts and their noise do not change with them.
 std::array<cv::Mat1b, 2> RenderShot(const CalibratedStation& station, const ShotJob& job) {
   const Rigid3d& pose = job.shot.truth.support_from_part;
-  return {RenderPartImage(station.truth, RigSide::kLeft, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false),
-          RenderPartImage(station.truth, RigSide::kRight, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false)};
+  const ImageDefects defects =
+      SampleImageDefects(station.truth.scene.image_effects, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 2));
+  return {RenderPartImage(station.truth, RigSide::kLeft, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 0), false,
+                          defects),
+          RenderPartImage(station.truth, RigSide::kRight, job.geometry, pose, Random::DeriveSeed(job.noise_seed, 1), false,
+                          defects)};
 }
 
 // Inspects one pair of the part `m` describes (its truth filled in) and records the

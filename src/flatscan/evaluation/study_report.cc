@@ -210,6 +210,36 @@ nlohmann::json RotationJson(const RotationStudy& st, const RotationStudyOptions&
   return {{"parts_per_angle", o.parts}, {"step_deg", o.step_deg}, {"max_deg", o.max_deg}, {"seed", o.seed}, {"rows", rows}};
 }
 
+std::string RobustnessMarkdown(const RobustnessStudy& st, const BatchStudyOptions& o) {
+  std::string md = fmt::format(
+      "### Robustness to the defects of real images: the same {} parts, ideal and with each effect\n\n"
+      "Ideal images: {}/{} parts measured. Columns over the parts measured in both: abs(error) median / 95th "
+      "percentile (um) ideal and with the effect; wrong verdicts against the truth (tolerance {} mm).\n\n",
+      o.parts, st.ideal.errors.count, o.parts, o.tolerance_mm);
+  md += "| effect | range | ideal median / p95 (um) | with it median / p95 (um) | not measured | wrong verdicts ideal / with it |\n";
+  md += "|---|---|---|---|---|---|\n";
+  for (const RobustnessRow& r : st.rows)
+    md += fmt::format("| {} | {} | {:.2f} / {:.2f} | {:.2f} / {:.2f} | {}/{} ({:.1f}%) | {} / {} |\n", r.name, r.range,
+                      1000 * r.ideal.median_abs_mm, 1000 * r.ideal.p95_abs_mm, 1000 * r.with_effect.median_abs_mm,
+                      1000 * r.with_effect.p95_abs_mm, r.not_measured, r.parts,
+                      r.parts > 0 ? 100.0 * r.not_measured / r.parts : 0.0, r.wrong_ideal, r.wrong_with_effect);
+  for (const RobustnessRow& r : st.rows)
+    for (const std::string& reason : r.reasons) md += fmt::format("\n- not measured ({}): {}", r.name, reason);
+  md += "\n";
+  return md;
+}
+
+nlohmann::json RobustnessJson(const RobustnessStudy& st, const BatchStudyOptions& o) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const RobustnessRow& r : st.rows)
+    rows.push_back({{"effect", r.name}, {"range", r.range}, {"parts", r.parts}, {"measured_both", r.measured_both},
+                    {"errors_ideal", ErrorJson(r.ideal)}, {"errors_with_effect", ErrorJson(r.with_effect)},
+                    {"not_measured", r.not_measured}, {"not_measured_reasons", r.reasons},
+                    {"wrong_verdicts_ideal", r.wrong_ideal}, {"wrong_verdicts_with_effect", r.wrong_with_effect}});
+  return {{"parts", o.parts}, {"seed", o.seed}, {"tolerance_mm", o.tolerance_mm},
+          {"ideal_measured", st.ideal.errors.count}, {"errors_ideal", ErrorJson(st.ideal.errors)}, {"rows", rows}};
+}
+
 cv::Mat3b RotationChart(const RotationStudy& st) {
   PlotSpec spec;
   spec.title = "Coverage against the part's rotation to the camera baseline";

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "flatscan/evaluation/flatness_study.h"
+#include "flatscan/evaluation/robustness_study.h"
 
 namespace flatscan {
 
@@ -28,11 +29,13 @@ std::string CalibrationMarkdown(const CalibratedStation& station);
 std::string RepeatMarkdown(const RepeatStudy& study, const RepeatStudyOptions& options);
 std::string BatchMarkdown(const BatchStudy& study, const BatchStudyOptions& options);
 std::string RotationMarkdown(const RotationStudy& study, const RotationStudyOptions& options);
+std::string RobustnessMarkdown(const RobustnessStudy& study, const BatchStudyOptions& options);
 
 nlohmann::json CalibrationJson(const CalibratedStation& station);
 nlohmann::json RepeatJson(const RepeatStudy& study, const RepeatStudyOptions& options);
 nlohmann::json BatchJson(const BatchStudy& study, const BatchStudyOptions& options);
 nlohmann::json RotationJson(const RotationStudy& study, const RotationStudyOptions& options);
+nlohmann::json RobustnessJson(const RobustnessStudy& study, const BatchStudyOptions& options);
 
 // Charts: measured flatness of every shot against the shot index with the truth and
 // the mean; measured against true flatness with the tolerance and the guard band;

@@ -83,6 +83,12 @@ class EvaluateCommand : public Command {
               ->check(IntegerIn(1, 100))
               ->default_val(calibrations_),
           "calibrations");
+    Fills(sub_->add_option("--robustness", robustness_options_.parts,
+                           "robustness to the defects of real images: this many parts, rendered ideal and with each "
+                           "image effect in turn (backlight non-uniformity, exposure drift, dust, halo, shot noise, "
+                           "motion between the exposures)")
+              ->check(IntegerIn(1, 100000)),
+          "robustness.parts");
     sub_->add_option("--save-worst", save_worst_,
                      "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
@@ -96,9 +102,9 @@ class EvaluateCommand : public Command {
 
   int Run() override {
     const bool rotation = rotation_options_.step_deg > 0;
-    if (!repeat_ && batch_options_.parts <= 0 && !rotation)
-      ThrowInputError("evaluate: expected --repeat, --batch N and/or --rotation-step DEG (for example: flatscan evaluate "
-                      "--repeat --batch 1000)");
+    if (!repeat_ && batch_options_.parts <= 0 && !rotation && robustness_options_.parts <= 0)
+      ThrowInputError("evaluate: expected --repeat, --batch N, --rotation-step DEG and/or --robustness N (for example: "
+                      "flatscan evaluate --repeat --batch 1000)");
     if (calibrations_ > 1 && batch_options_.parts <= 0)
       ThrowInputError("evaluate: --calibrations {} validates the batch study's uncertainties: give --batch N too",
                       calibrations_);
@@ -106,8 +112,9 @@ class EvaluateCommand : public Command {
     SceneConfig scene = LoadScene(preset_, scene_file_);
     scene.board.poses = calib_poses_;
     rotation_options_.lot = batch_options_.lot;
+    robustness_options_.lot = batch_options_.lot;
     for (StudyOptions* o : {static_cast<StudyOptions*>(&repeat_options_), static_cast<StudyOptions*>(&batch_options_),
-                            static_cast<StudyOptions*>(&rotation_options_)}) {
+                            static_cast<StudyOptions*>(&rotation_options_), static_cast<StudyOptions*>(&robustness_options_)}) {
       o->tolerance_mm = tolerance_;
       o->seed = seed_;
       o->inspection.thickness_correction = !no_correction_;
@@ -182,6 +189,11 @@ class EvaluateCommand : public Command {
       add_section("rotation", RotationMarkdown(study, rotation_options_), RotationJson(study, rotation_options_));
       WriteImage((root / "rotation_coverage.png").string(), RotationChart(study));
     }
+    if (robustness_options_.parts > 0) {
+      const RobustnessStudy study =
+          RunRobustnessStudy(station, robustness_options_, RealisticImageEffects(), ProgressLogger("robustness: part"));
+      add_section("robustness", RobustnessMarkdown(study, robustness_options_), RobustnessJson(study, robustness_options_));
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json["total_time_s"] = seconds;
     WriteTextFileAtomically(root / "report.md", md);
@@ -217,6 +229,7 @@ class EvaluateCommand : public Command {
     o.parts = 0;
     return o;
   }();
+  BatchStudyOptions robustness_options_ = batch_options_;  // off unless --robustness
 };
 
 }  // namespace

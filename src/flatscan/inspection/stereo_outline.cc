@@ -32,6 +32,37 @@ bool EnclosesMaterial(const BoundaryResult& b, const ContourInfo& c) {
   return outward > 0;
 }
 
+// A part's outline that does not close: open contours (the outline in one or more
+// pieces) whose every end lies close to another end, together long enough for a part.
+// Measured cause: a dark speck (dust on the backlight or the lens) touching the part's
+// edge joins the two silhouettes by a blurred neck where the edge's gradient is too
+// weak to follow (docs/inspection.md, "Image defects"). The outline there is hidden:
+// not measured, with the reason.
+void ThrowIfOutlineIsBroken(const BoundaryResult& b, const ImageAcceptance& accept, const std::string& name) {
+  std::vector<Eigen::Vector2d> ends;
+  double length = 0;
+  for (const ContourInfo& info : b.contours) {
+    if (info.closed || info.end - info.begin < 2) continue;
+    for (int i : {info.begin, info.end - 1}) ends.emplace_back(b.points[i].x, b.points[i].y);
+    length += info.length_px;
+  }
+  if (ends.empty() || length < 2 * accept.min_cut_contour_px) return;
+  std::vector<Eigen::Vector2d> gaps;
+  for (size_t i = 0; i < ends.size(); ++i) {
+    double nearest = std::numeric_limits<double>::infinity();
+    size_t partner = i;
+    for (size_t j = 0; j < ends.size(); ++j)
+      if (j != i && (ends[j] - ends[i]).norm() < nearest) nearest = (ends[j] - ends[i]).norm(), partner = j;
+    if (nearest > accept.max_outline_gap_px) return;  // a loose end: not an interrupted outline
+    if (partner > i) gaps.push_back(0.5 * (ends[i] + ends[partner]));
+  }
+  std::string where;
+  for (const Eigen::Vector2d& g : gaps) where += fmt::format("{}({:.0f}, {:.0f})", where.empty() ? "" : ", ", g.x(), g.y());
+  ThrowInputError("{}: the part's outline is interrupted near {} px: a dark speck (dust on the backlight or the lens) "
+                  "touching the part's edge? Clean the backlight and the lenses and measure again",
+                  name, where);
+}
+
 // Checks what the image shows and returns the outer contour of the one part.
 int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const ImageAcceptance& accept, const std::string& name) {
   if (b.bright_level < accept.min_backlight_grey)
@@ -62,8 +93,10 @@ int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const Image
     if (near_border(a) || near_border(z))
       ThrowInputError("{}: the part touches the image border: place it fully inside both cameras' views", name);
   }
-  if (best < 0 || best_area < min_area)
+  if (best < 0 || best_area < min_area) {
+    ThrowIfOutlineIsBroken(b, accept, name);
     ThrowInputError("{}: no part found (expected a dark part on the bright backlight, fully in view)", name);
+  }
   for (size_t c = 0; c < b.contours.size(); ++c)
     if (areas[c] > accept.second_part_area_ratio * best_area) ++parts;
   if (parts > 1) ThrowInputError("{}: {} parts found: inspect one part at a time", name, parts);

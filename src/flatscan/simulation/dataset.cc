@@ -11,6 +11,7 @@
 #include "flatscan/io/pairs_csv.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/coverage_renderer.h"
+#include "flatscan/simulation/image_defects.h"
 #include "flatscan/simulation/image_formation.h"
 #include "flatscan/simulation/truth_file.h"
 #include "flatscan/util/error.h"
@@ -22,13 +23,19 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kImageMarginPx = 24.0;  // parts and boards stay this far from the border
 
-// Linear radiance -> blurred, vignetted, noisy 8-bit image.
+// Linear radiance -> blurred, lit (vignetting and the defects' non-uniformity), noisy
+// 8-bit image.
 cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, const std::vector<cv::Rect>& regions,
-                      uint64_t noise_seed) {
+                      uint64_t noise_seed, const ImageDefects& defects = {}) {
   BlurRegions(radiance, st.scene.optics.blur_sigma_px, regions);
   const Camera& cam = st.GetCamera(camera);
-  cv::multiply(radiance, BacklightImage(cam.width, cam.height, 1.0, st.scene.lighting.vignetting), radiance);
-  return QuantizeWithNoise(radiance, st.scene.optics.noise_sigma_grey, noise_seed);
+  const double vignetting = st.scene.lighting.vignetting;
+  if (defects.Any())
+    cv::multiply(radiance, IlluminationImage(cam.width, cam.height, vignetting, defects, camera == RigSide::kLeft ? 0 : 1),
+                 radiance);
+  else
+    cv::multiply(radiance, BacklightImage(cam.width, cam.height, 1.0, vignetting), radiance);
+  return QuantizeWithNoise(radiance, st.scene.optics.noise_sigma_grey, noise_seed, defects.shot_noise);
 }
 
 std::vector<std::unique_ptr<Occluder>> MarkerOccluders(const Station& st) {
@@ -42,6 +49,14 @@ std::vector<std::unique_ptr<Occluder>> MarkerOccluders(const Station& st) {
         Rigid3d(), [c, r_in, r_out](const Eigen::Vector2d& p) { return AnnulusSdf(p, c, r_in, r_out); }, outline));
   }
   return out;
+}
+
+PlanarOccluder SpeckOccluder(const DustSpeck& s) {
+  const Eigen::Vector2d c = s.centre_mm;
+  const double r = s.radius_mm;
+  return PlanarOccluder(Rigid3d(), [c, r](const Eigen::Vector2d& p) { return CircleSdf(p, c, r); },
+                        {c + Eigen::Vector2d(-r, -r), c + Eigen::Vector2d(r, -r), c + Eigen::Vector2d(r, r),
+                         c + Eigen::Vector2d(-r, r)});
 }
 
 void DrawOccluder(const Station& st, RigSide camera, const Occluder& occ, double grey, cv::Mat1f& radiance,
@@ -131,14 +146,23 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
 }
 
 cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry& geometry,
-                          const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers) {
+                          const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers,
+                          const ImageDefects& defects) {
   const Camera& cam = st.GetCamera(camera);
-  cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(st.scene.lighting.backlight_grey));
+  const LightingSpec& light = st.scene.lighting;
+  cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(light.backlight_grey));
   std::vector<cv::Rect> regions;
-  DrawOccluder(st, camera, PartOccluder(geometry, support_from_part), st.scene.lighting.part_grey, radiance, regions);
+  for (const DustSpeck& s : defects.specks) DrawOccluder(st, camera, SpeckOccluder(s), light.part_grey, radiance, regions);
+  Rigid3d pose = support_from_part;
+  if (camera == RigSide::kRight) pose.translation += defects.right_motion_mm;
+  const CoverageTile part = RenderCoverage(cam, st.CamFromSupport(camera), PartOccluder(geometry, pose));
+  BlendCoverage(radiance, part, light.part_grey);
+  if (!part.roi.empty()) regions.push_back(part.roi);
+  const cv::Rect halo = AddHalo(radiance, part, light.backlight_grey, defects.halo_gain, defects.halo_width_px);
+  if (!halo.empty()) regions.push_back(halo);
   if (with_markers)
-    for (const auto& m : MarkerOccluders(st)) DrawOccluder(st, camera, *m, st.scene.lighting.marker_grey, radiance, regions);
-  return FinishImage(st, camera, radiance, regions, noise_seed);
+    for (const auto& m : MarkerOccluders(st)) DrawOccluder(st, camera, *m, light.marker_grey, radiance, regions);
+  return FinishImage(st, camera, radiance, regions, noise_seed, defects);
 }
 
 cv::Mat1b RenderMarkerImage(const Station& st, RigSide camera, uint64_t noise_seed) {
@@ -276,8 +300,11 @@ SimulateSummary SimulateDataset(const SimulateOptions& options, const std::funct
                                                      : fmt::format("parts/part_{:03d}", part.id);
       files.push_back({stem.substr(6), stem + "_left.png", stem + "_right.png"});
       const bool markers = st.scene.dataset.markers_in_part_images;
-      WritePng(root / files.back().left, RenderPartImage(st, RigSide::kLeft, part.geometry, shot.truth.support_from_part, next_seed(), markers));
-      WritePng(root / files.back().right, RenderPartImage(st, RigSide::kRight, part.geometry, shot.truth.support_from_part, next_seed(), markers));
+      const Rigid3d& pose = shot.truth.support_from_part;
+      const ImageDefects defects = SampleImageDefects(st.scene.image_effects, part.geometry, pose,
+                                                      Random::DeriveSeed(options.seed ^ 0xDEFEC75ull, summary.part_pairs));
+      WritePng(root / files.back().left, RenderPartImage(st, RigSide::kLeft, part.geometry, pose, next_seed(), markers, defects));
+      WritePng(root / files.back().right, RenderPartImage(st, RigSide::kRight, part.geometry, pose, next_seed(), markers, defects));
       add(files.back().left);
       add(files.back().right);
       pairs.push_back({files.back().id, files.back().left, files.back().right, part.geometry.SideHeight()});

@@ -20,6 +20,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "flatscan/simulation/image_defects.h"
 #include "flatscan/simulation/part_model.h"
 #include "flatscan/simulation/station.h"
 
@@ -61,9 +62,11 @@ SimulatedPart SampleSimulatedPart(const Station& station, int id, Random& rng);
 // The same for a given part geometry (placement and shots only).
 SimulatedPart PlaceSimulatedPart(const Station& station, int id, PartGeometry geometry, Random& rng);
 
-// One 8-bit image of one camera.
+// One 8-bit image of one camera, with the pair's image defects (simulation/image_defects.h;
+// none by default).
 cv::Mat1b RenderPartImage(const Station& station, RigSide camera, const PartGeometry& geometry,
-                          const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers);
+                          const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers,
+                          const ImageDefects& defects = {});
 cv::Mat1b RenderMarkerImage(const Station& station, RigSide camera, uint64_t noise_seed);
 cv::Mat1b RenderBoardImage(const Station& station, RigSide camera, const Rigid3d& support_from_board,
                            uint64_t noise_seed);

@@ -83,10 +83,10 @@ void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>&
   }
 }
 
-cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed) {
+cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed, double shot_noise) {
   cv::Mat1b out(image.size());
   const auto& quantiles = NormalQuantiles();
-  const float sigma = static_cast<float>(noise_sigma);
+  const float sigma = static_cast<float>(noise_sigma), read2 = sigma * sigma, shot = static_cast<float>(shot_noise);
   tbb::parallel_for(0, image.rows, [&](int v) {
     Random rng(Random::DeriveSeed(seed, static_cast<uint64_t>(v)));
     const float* in = image.ptr<float>(v);
@@ -94,7 +94,8 @@ cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t
     uint64_t bits = 0;
     for (int u = 0; u < image.cols; ++u) {
       if ((u & 3) == 0) bits = rng.NextU64();
-      const float noise = sigma * quantiles[(bits >> (16 * (u & 3))) & 0xFFFF];
+      const float sd = shot > 0 ? std::sqrt(read2 + shot * std::max(in[u], 0.0f)) : sigma;
+      const float noise = sd * quantiles[(bits >> (16 * (u & 3))) & 0xFFFF];
       const float value = std::nearbyint(in[u] + noise);
       o[u] = static_cast<uint8_t>(std::clamp(value, 0.0f, 255.0f));
     }

@@ -23,8 +23,9 @@ void BlendCoverage(cv::Mat1f& image, const CoverageTile& tile, double grey);
 // more than 1e-4 grey). Empty regions: the whole image.
 void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>& regions);
 
-// Adds Gaussian noise (sigma in grey levels, deterministic for `seed`, independent
-// of the number of threads), rounds and clips to 8 bits.
-cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed);
+// Adds Gaussian noise (deterministic for `seed`, independent of the number of
+// threads), rounds and clips to 8 bits. The noise's variance at a pixel of value I is
+// noise_sigma^2 + shot_noise * I (grey levels; shot_noise > 0 adds photon noise).
+cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed, double shot_noise = 0.0);
 
 }  // namespace flatscan

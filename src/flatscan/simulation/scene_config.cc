@@ -233,6 +233,18 @@ void BindScene(SceneConfig& s, Binder& b) {
     b.Number("blur_sigma_px", s.optics.blur_sigma_px, 0.0, 10.0);
     b.Number("noise_sigma_grey", s.optics.noise_sigma_grey, 0.0, 50.0);
   });
+  b.Section("image_effects", [&] {
+    ImageEffectsSpec& e = s.image_effects;
+    b.RangeField("backlight_gradient", e.backlight_gradient, 0.0, 0.9);
+    b.RangeField("exposure_drift", e.exposure_drift, -0.9, 0.9);
+    b.IntRange("dust_specks", e.dust_specks, 0, 1000);
+    b.RangeField("dust_diameter_um", e.dust_diameter_um, 1.0, 5000.0);
+    b.Number("dust_touching_fraction", e.dust_touching_fraction, 0.0, 1.0);
+    b.RangeField("halo_gain", e.halo_gain, 0.0, 2.0);
+    b.Number("halo_width_px", e.halo_width_px, 0.1, 50.0);
+    b.Number("shot_noise", e.shot_noise, 0.0, 10.0);
+    b.RangeField("motion_um", e.motion_um, 0.0, 1000.0);
+  });
   b.Section("markers", [&] {
     b.Number("inner_radius_mm", s.markers.inner_radius_mm, 0.05, 100.0);
     b.Number("outer_radius_mm", s.markers.outer_radius_mm, 0.1, 200.0);

@@ -60,6 +60,38 @@ struct OpticsSpec {
   double noise_sigma_grey = 2.0;    // Gaussian sensor noise
 };
 
+// Defects of real backlit images, drawn per part pair (docs/simulator.md, "Image
+// defects"). Every one is off by default (an ideal image); `flatscan evaluate
+// --robustness` turns each on in turn within its realistic range
+// (evaluation/robustness_study.h). Part images only: the calibration images stay ideal.
+struct ImageEffectsSpec {
+  // Backlight non-uniformity: a linear gradient in a random direction per camera, the
+  // brightness factor 1 + g (r . u), r the offset from the image centre over the half
+  // diagonal, u a unit direction, g drawn from this range (+-g at the corners).
+  Range backlight_gradient = {0.0, 0.0};
+  // Camera 2's exposure relative to camera 1's (a slow drift of one exposure or gain):
+  // its image is (1 + e) times as bright, e drawn from this range.
+  Range exposure_drift = {0.0, 0.0};
+  // Dark specks of dust on the backlight (opaque discs on the support plane, seen by
+  // both cameras): their count, diameters, and the share placed touching the part's outline.
+  std::array<int, 2> dust_specks = {0, 0};
+  Range dust_diameter_um = {20.0, 200.0};
+  double dust_touching_fraction = 0.5;
+  // Bright halo around the silhouette (backlight reflected by the metal side faces): the
+  // backlight outside the part is brightened by gain * exp(-d / width), d the distance to
+  // the silhouette in pixels; gain drawn from this range (0: a matte or anodised part).
+  Range halo_gain = {0.0, 0.0};
+  double halo_width_px = 2.0;
+  // Photon (shot) noise: the noise variance is noise_sigma_grey^2 + shot_noise * I
+  // (grey levels^2 per grey level of signal I; a sensor of 6000 electrons full well
+  // digitised to 255 levels gives about 0.04).
+  double shot_noise = 0.0;
+  // The part moves between the two exposures (it is still settling or vibrating): in
+  // camera 2's image it is displaced by this many micrometres, rigidly, in a random 3D
+  // direction.
+  Range motion_um = {0.0, 0.0};
+};
+
 struct MarkerSpec {
   double inner_radius_mm = 1.0;   // transparent disc
   double outer_radius_mm = 2.5;   // black ring from inner to outer radius
@@ -121,6 +153,7 @@ struct SceneConfig {
   PlaneSpec plane;
   LightingSpec lighting;
   OpticsSpec optics;
+  ImageEffectsSpec image_effects;
   MarkerSpec markers;
   BoardSpec board;
   PartSpec part;
