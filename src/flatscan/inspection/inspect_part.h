@@ -39,6 +39,12 @@ struct ImageAcceptance {
   // encloses a part-sized area is the part's outline interrupted (a speck touching its
   // edge: measured gaps of 5 px at 200 um specks on the paper rig).
   double max_outline_gap_px = 12;
+  // The backlight just outside the edge (2 px) may be at most this fraction of the
+  // edge's step brighter than further out (8 px): beyond it a halo of reflected light
+  // biases the edge fit. Measured: an ideal blurred edge gives -0.02 (compact rig, blur
+  // 0.8 px) and -0.04 (paper rig, 1.0 px); a halo of gain 0.1 (the weakest of the
+  // realistic range) and 2 px decay +0.02 to +0.03.
+  double max_halo_contrast = 0.01;
   // The part's outline must enclose at least this fraction of the image (smaller: dust,
   // no part); a second outline enclosing material of more than `second_part_area_ratio`
   // of the largest is a second part.
