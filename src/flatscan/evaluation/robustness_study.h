@@ -19,7 +19,8 @@ struct ImageEffectCase {
   std::function<void(SceneConfig&)> apply;
 };
 
-// Each effect of issue 12 section 3 with its realistic range, and all of them together.
+// Each effect of issue 12 section 3 with its realistic range, and all of them but the
+// halo together (a halo makes every part "not measured").
 std::vector<ImageEffectCase> RealisticImageEffects();
 
 struct RobustnessRow {
