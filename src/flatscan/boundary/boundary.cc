@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "flatscan/boundary/canny.h"
+#include "flatscan/boundary/chain_linking.h"
 #include "flatscan/boundary/edge_refinement.h"
 #include "flatscan/boundary/part_region.h"
 #include "flatscan/boundary/zernike.h"
@@ -261,6 +262,7 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
   result.blur_sigma_px = std::sqrt(std::max(blur_variance - 1.0 / 12.0, 0.0));
   result.points.reserve(pixel_chains.pixels.size());
   std::vector<ChainPoint> chain;
+  std::vector<std::vector<ChainPoint>> chains;  // refined, before joining and smoothing
   std::vector<ProfileRequest> requests;
   std::vector<Eigen::Vector2d> normals;
   std::vector<ProfileCrossing> crossings;
@@ -321,6 +323,10 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
         if (MeasurePoint(image, pixels[i], options, window_sigma, blur_variance, &point, &profile)) add(point);
       }
     }
+    if (!chain.empty()) chains.push_back(chain);
+  }
+  if (model) chains = LinkChainEnds(std::move(chains));
+  for (std::vector<ChainPoint>& chain : chains) {
     if (static_cast<int>(chain.size()) < options.min_contour_points) continue;
     const bool closed = chain.size() > 4 && (chain.front().p - chain.back().p).norm() < 2.0;
     if (model) SmoothAndCorrectChain(chain, closed, blur_variance);

@@ -7,7 +7,8 @@
 // are chained into ordered contours (outer boundary and holes, each its own id); each
 // pixel's position is refined along the grid direction nearest its Sobel normal with
 // a model of the blurred edge (see edge_refinement.h; the 7x7 Zernike-moment operator
-// of Ghosal-Mehrotra is the reference method kZernike), and the chain is smoothed by
+// of Ghosal-Mehrotra is the reference method kZernike), the pieces one edge was left in
+// (chains ending at a spur) are joined (chain_linking.h), and the chain is smoothed by
 // local circle fits with a curvature correction.
 //
 // Conventions: pixel (u, v) integer coordinates are pixel centres. The normal

@@ -39,6 +39,11 @@ std::vector<ImageEffectCase> RealisticImageEffects() {
        [](SceneConfig& s) { s.image_effects.shot_noise = 0.04; }},
       {"motion between the exposures", "part displaced 0-2 um (random 3D direction) in camera 2's exposure",
        [](SceneConfig& s) { s.image_effects.motion_um = {0.0, 2.0}; }},
+      {"defocus across the part (depth of field)", "f/4-f/11, each lens focused up to 2 mm off the support plane",
+       [](SceneConfig& s) {
+         s.image_effects.f_number = {4.0, 11.0};
+         s.image_effects.focus_error_mm = {-2.0, 2.0};
+       }},
   };
   // Together: every effect but the halo, which makes every part "not measured" (the
   // inspection detects it: docs/inspection.md, "Image defects").
@@ -62,7 +67,8 @@ RobustnessRow CompareWithIdeal(const std::vector<PartMeasurement>& ideal, const 
     if (!a.measured) continue;
     if (!b.measured) {
       ++row.not_measured;
-      if (static_cast<int>(row.reasons.size()) < kReasonsKept) row.reasons.push_back(b.id + ": " + b.error);
+      if (static_cast<int>(row.reasons.size()) < kReasonsKept)  // the image's name, when given, starts with the id
+        row.reasons.push_back(b.error.rfind(b.id, 0) == 0 ? b.error : b.id + ": " + b.error);
       continue;
     }
     ++row.measured_both;

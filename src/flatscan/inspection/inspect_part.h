@@ -31,6 +31,11 @@ struct ImageAcceptance {
   // Fraction of the backlight's samples at 255: beyond it the clipped profiles bias the
   // edge towards the part.
   double max_saturated_fraction = 0.25;
+  // The edges' blur (Gaussian sigma, px, as the boundary estimates it): the edge profile
+  // is read over +-6 px (boundary.cc), 3 sigma at 2 px; beyond it the profile is cut
+  // short and Canny's chains break into pieces. Measured: an in-focus lens gives 0.8-1.0
+  // px; the paper rig at f/2.8 focused 3 mm off the plane 2.0-3.4 px.
+  double max_blur_sigma_px = 2.0;
   // An open contour at least this long (px) that ends within `border_margin_px` of the
   // image border is a part cut by the border (shorter ones: dust, vignetting).
   double min_cut_contour_px = 50;

@@ -219,32 +219,70 @@ TEST(InspectPart, UnmeasurablePairsSayWhy) {
 }
 
 
+// One simulated part of a preset's station, rendered with image defects and inspected
+// with the true rig and plane (the images are what is tested).
+struct PartWithDefects {
+  Station st;
+  SimulatedPart part;
+  Rigid3d pose;
+  InspectionParams params;
+  PartWithDefects(const std::string& preset, uint64_t part_seed) : st(BuildStation(ScenePreset(preset))) {
+    Random rng(part_seed);
+    part = SampleSimulatedPart(st, 0, rng);
+    pose = part.shots[0].truth.support_from_part;
+    params.thickness_mm = part.geometry.SideHeight();
+  }
+  double TrueFlatness() const { return part.shots[0].truth.flatness_mm; }
+  // Left image with `noise_seed`, right with noise_seed + 1, named L.png and R.png.
+  InspectionResult Inspect(const ImageDefects& defects, uint64_t noise_seed) const {
+    const cv::Mat1b left = RenderPartImage(st, RigSide::kLeft, part.geometry, pose, noise_seed, false, defects);
+    const cv::Mat1b right = RenderPartImage(st, RigSide::kRight, part.geometry, pose, noise_seed + 1, false, defects);
+    return InspectPart(st.rig, st.plane, left, right, params, "L.png", "R.png");
+  }
+  std::string ErrorOf(const ImageDefects& defects, uint64_t noise_seed) const {
+    return InputErrorOf([&] { Inspect(defects, noise_seed); });
+  }
+};
+
 // Dust on the backlight touching the part's edge (simulation/image_defects.h): the
 // outline cannot be followed through the speck's blurred neck, and the part is not
 // measured with that reason (not "no part found"). Specks clear of the edge change
 // nothing that matters.
 TEST(InspectPart, DustTouchingTheOutlineIsNotMeasuredWithTheReason) {
-  const Station st = BuildStation(ScenePreset("paper"));
-  Random rng(5);
-  const SimulatedPart part = SampleSimulatedPart(st, 0, rng);
-  const Rigid3d& pose = part.shots[0].truth.support_from_part;
-  InspectionParams params;
-  params.thickness_mm = part.geometry.SideHeight();
+  const PartWithDefects p("paper", 5);
   ImageEffectsSpec dust;
   dust.dust_specks = {6, 6};
   dust.dust_diameter_um = {150, 200};
   dust.dust_touching_fraction = 1.0;
-  const ImageDefects touching = SampleImageDefects(dust, part.geometry, pose, kDustSeed);
-  const cv::Mat1b left = RenderPartImage(st, RigSide::kLeft, part.geometry, pose, 31, false, touching);
-  const cv::Mat1b right = RenderPartImage(st, RigSide::kRight, part.geometry, pose, 32, false, touching);
-  const std::string error = InputErrorOf([&] { InspectPart(st.rig, st.plane, left, right, params, "L.png", "R.png"); });
+  const std::string error = p.ErrorOf(SampleImageDefects(dust, p.part.geometry, p.pose, kDustSeed), 31);
   EXPECT_NE(error.find("the part's outline is interrupted near ("), std::string::npos) << error;
   EXPECT_NE(error.find("a dark speck (dust on the backlight or the lens) touching the part's edge?"), std::string::npos);
   dust.dust_touching_fraction = 0.0;  // the same number of specks, none touching
-  const ImageDefects clear = SampleImageDefects(dust, part.geometry, pose, kDustSeed);
-  const InspectionResult r = InspectPart(st.rig, st.plane, RenderPartImage(st, RigSide::kLeft, part.geometry, pose, 31, false, clear),
-                                         RenderPartImage(st, RigSide::kRight, part.geometry, pose, 32, false, clear), params);
-  EXPECT_NEAR(r.values.flatness_mm, part.shots[0].truth.flatness_mm, 0.002);
+  const InspectionResult r = p.Inspect(SampleImageDefects(dust, p.part.geometry, p.pose, kDustSeed), 31);
+  EXPECT_NEAR(r.values.flatness_mm, p.TrueFlatness(), 0.002);
+}
+
+// Defocus that varies across the part (simulation/image_defects.h, DefocusSigma): a lens
+// at f/4 focused 2 mm off the plane widens the edges unevenly (1.4-1.5 px against 1.0 in
+// focus) and the part is measured as well as in focus; at f/2.8 and 4 mm the image is out
+// of focus and the part is not measured with that reason (not taken for dust on an
+// interrupted outline).
+TEST(InspectPart, DefocusIsMeasuredWithinItsDepthOfFieldAndSaidOutOfFocusBeyond) {
+  const PartWithDefects p("paper", 5);
+  ImageDefects defocus;
+  defocus.f_number = 4.0;
+  defocus.focus_error_mm = {2.0, -2.0};
+  const InspectionResult r = p.Inspect(defocus, 51);
+  EXPECT_GT(r.blur_left_px, 1.2);
+  EXPECT_NEAR(r.values.flatness_mm, p.TrueFlatness(), 0.003);
+  std::printf("f/4, focus +-2 mm: blur %.2f / %.2f px, error %+.2f um\n", r.blur_left_px, r.blur_right_px,
+              1000 * (r.values.flatness_mm - p.TrueFlatness()));
+  defocus.f_number = 2.8;
+  defocus.focus_error_mm = {4.0, -4.0};
+  const std::string error = p.ErrorOf(defocus, 51);
+  EXPECT_EQ(error.rfind("L.png: out of focus (the edges' blur sigma is ", 0), 0u) << error;
+  EXPECT_NE(error.find(" px; expected at most 2.00 px): focus the lens on the support plane, or close its aperture"),
+            std::string::npos) << error;
 }
 
 // A bright halo around the edge (light reflected by bright metal edges, simulation/
@@ -252,18 +290,11 @@ TEST(InspectPart, DustTouchingTheOutlineIsNotMeasuredWithTheReason) {
 // the part is not measured with that reason. A gain of 0.1, the weakest of the realistic
 // range, is found too.
 TEST(InspectPart, BrightHaloAroundTheEdgeIsNotMeasuredWithTheReason) {
-  const Station st = BuildStation(ScenePreset("compact"));
-  Random rng(3);
-  const SimulatedPart part = SampleSimulatedPart(st, 0, rng);
-  const Rigid3d& pose = part.shots[0].truth.support_from_part;
-  InspectionParams params;
-  params.thickness_mm = part.geometry.SideHeight();
+  const PartWithDefects p("compact", 3);
   for (double gain : {0.1, 0.4}) {
     ImageDefects halo;
     halo.halo_gain = gain;
-    const cv::Mat1b left = RenderPartImage(st, RigSide::kLeft, part.geometry, pose, 41, false, halo);
-    const cv::Mat1b right = RenderPartImage(st, RigSide::kRight, part.geometry, pose, 42, false, halo);
-    const std::string error = InputErrorOf([&] { InspectPart(st.rig, st.plane, left, right, params, "L.png", "R.png"); });
+    const std::string error = p.ErrorOf(halo, 41);
     EXPECT_EQ(error.rfind("L.png: a bright halo around the part's edge (the backlight ", 0), 0u) << error;
     EXPECT_NE(error.find("% of the edge's step brighter 2 px outside it than 8 px out; expected at most 1%)"),
               std::string::npos) << error;

@@ -98,6 +98,10 @@ int FindPartContour(const BoundaryResult& b, const cv::Mat1b& image, const Image
   if (b.saturated_fraction > accept.max_saturated_fraction)
     ThrowInputError("{}: over-exposed ({:.0f}% of the backlight is saturated at 255): reduce exposure so the backlight stays below 255",
                     name, 100 * b.saturated_fraction);
+  if (b.blur_sigma_px > accept.max_blur_sigma_px)
+    ThrowInputError("{}: out of focus (the edges' blur sigma is {:.2f} px; expected at most {:.2f} px): focus the lens "
+                    "on the support plane, or close its aperture for more depth of field",
+                    name, b.blur_sigma_px, accept.max_blur_sigma_px);
   int best = -1, parts = 0;
   double best_area = 0;
   std::vector<double> areas(b.contours.size(), 0.0);

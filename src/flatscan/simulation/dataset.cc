@@ -27,8 +27,17 @@ constexpr double kImageMarginPx = 24.0;  // parts and boards stay this far from 
 // 8-bit image.
 cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, const std::vector<cv::Rect>& regions,
                       uint64_t noise_seed, const ImageDefects& defects = {}) {
-  BlurRegions(radiance, st.scene.optics.blur_sigma_px, regions);
   const Camera& cam = st.GetCamera(camera);
+  const double sigma0 = st.scene.optics.blur_sigma_px;
+  if (defects.f_number > 0) {
+    const CameraSpec& lens = camera == RigSide::kLeft ? st.scene.left_camera : st.scene.right_camera;
+    const double focus_error = defects.focus_error_mm[camera == RigSide::kLeft ? 0 : 1];
+    BlurRegionsVarying(radiance, [&](const cv::Rect& rect) {
+      return DefocusSigma(cam, st.CamFromSupport(camera), lens, sigma0, defects.f_number, focus_error, rect);
+    }, regions);
+  } else {
+    BlurRegions(radiance, sigma0, regions);
+  }
   const double vignetting = st.scene.lighting.vignetting;
   if (defects.Any())
     cv::multiply(radiance, IlluminationImage(cam.width, cam.height, vignetting, defects, camera == RigSide::kLeft ? 0 : 1),

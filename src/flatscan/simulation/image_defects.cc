@@ -56,7 +56,7 @@ std::vector<DustSpeck> DrawSpecks(const ImageEffectsSpec& spec, const PartGeomet
 
 bool ImageDefects::Any() const {
   return !gradient[0].isZero() || !gradient[1].isZero() || right_exposure != 1.0 || !specks.empty() || halo_gain > 0 ||
-         shot_noise > 0 || !right_motion_mm.isZero();
+         shot_noise > 0 || !right_motion_mm.isZero() || f_number > 0;
 }
 
 ImageDefects SampleImageDefects(const ImageEffectsSpec& spec, const PartGeometry& geometry,
@@ -70,6 +70,8 @@ ImageDefects SampleImageDefects(const ImageEffectsSpec& spec, const PartGeometry
   d.halo_width_px = spec.halo_width_px;
   d.shot_noise = spec.shot_noise;
   d.right_motion_mm = 1e-3 * Draw(rng, spec.motion_um) * RandomUnit3(rng);
+  d.f_number = Draw(rng, spec.f_number);  // drawn last: the draws above do not change
+  for (double& e : d.focus_error_mm) e = Draw(rng, spec.focus_error_mm);
   return d;
 }
 
@@ -109,6 +111,41 @@ cv::Rect AddHalo(cv::Mat1f& radiance, const CoverageTile& part, double backlight
       r[x] += static_cast<float>(gain * backlight_grey * std::exp(-std::max(0.0f, d[x] - 0.5f) / width_px) * (1 - c[x]));
   }
   return area;
+}
+
+namespace {
+
+// Depth (mm, along the optical axis) of the support plane seen through pixel (u, v);
+// `guess` carries the previous pixel's undistorted ray to start Newton from.
+double SupportPlaneDepth(const Camera& camera, const Eigen::Vector3d& normal_cam, double offset, double u, double v,
+                         Eigen::Vector2d& guess) {
+  const Eigen::Vector2d xy = camera.PixelToNormalized({u, v}, guess);
+  if (std::isfinite(xy.x())) guess = xy;
+  return offset / normal_cam.dot(Eigen::Vector3d(guess.x(), guess.y(), 1.0));
+}
+
+}  // namespace
+
+cv::Mat1f DefocusSigma(const Camera& camera, const Rigid3d& cam_from_support, const CameraSpec& lens, double sigma0_px,
+                       double f_number, double focus_error_mm, const cv::Rect& rect) {
+  cv::Mat1f sigma(rect.size(), static_cast<float>(sigma0_px));
+  if (f_number <= 0) return sigma;
+  // The plane z = 0 of the support frame in the camera frame: n . X = offset.
+  const Eigen::Vector3d normal = cam_from_support.rotation * Eigen::Vector3d::UnitZ();
+  const double offset = normal.dot(cam_from_support.translation);
+  Eigen::Vector2d guess = camera.PixelToNormalized({camera.cx, camera.cy});
+  const double f = lens.focal_length_mm, aperture = f / f_number, pitch = 1e-3 * lens.pixel_size_um;
+  const double z_focus = SupportPlaneDepth(camera, normal, offset, camera.cx, camera.cy, guess) + focus_error_mm;
+  for (int y = 0; y < rect.height; ++y) {
+    guess = camera.PixelToNormalized({static_cast<double>(rect.x), static_cast<double>(rect.y + y)});
+    float* row = sigma.ptr<float>(y);
+    for (int x = 0; x < rect.width; ++x) {
+      const double z = SupportPlaneDepth(camera, normal, offset, rect.x + x, rect.y + y, guess);
+      const double c_px = aperture * f * std::abs(z - z_focus) / (z * (z_focus - f)) / pitch;
+      row[x] = static_cast<float>(std::hypot(sigma0_px, c_px / 4));
+    }
+  }
+  return sigma;
 }
 
 }  // namespace flatscan

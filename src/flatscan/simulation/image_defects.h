@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "flatscan/geometry/camera.h"
 #include "flatscan/geometry/rigid3.h"
 #include "flatscan/simulation/coverage_renderer.h"
 #include "flatscan/simulation/part_model.h"
@@ -32,6 +33,8 @@ struct ImageDefects {
   double halo_gain = 0, halo_width_px = 2.0;
   double shot_noise = 0;  // noise variance per grey level of signal
   Eigen::Vector3d right_motion_mm = Eigen::Vector3d::Zero();  // the part's displacement in camera 2's exposure
+  double f_number = 0;  // the lenses' aperture (f/N); 0: no defocus (the lens blur alone)
+  std::array<double, 2> focus_error_mm = {0, 0};  // per camera: focus distance minus the support plane's
 
   bool Any() const;
 };
@@ -50,5 +53,17 @@ cv::Mat1f IlluminationImage(int width, int height, double vignetting, const Imag
 // radiance += gain * backlight_grey * exp(-d / width) * (1 - coverage), d the distance in
 // pixels from the silhouette (coverage >= 0.5). Returns the region it changed.
 cv::Rect AddHalo(cv::Mat1f& radiance, const CoverageTile& part, double backlight_grey, double gain, double width_px);
+
+// Depth of field: the blur's sigma (px) at each pixel of `rect` of a camera whose lens
+// (focal length f = lens.focal_length_mm, pixels lens.pixel_size_um) at aperture f/N is
+// focused `focus_error_mm` beyond the support plane's depth at the image centre (z_f).
+// A thin lens images a point at depth z as a disc of diameter
+//   c = (f / N) f |z - z_f| / (z (z_f - f))          (mm on the sensor)
+// and a uniform disc of diameter c has the second moment of a Gaussian of sigma c / 4,
+// added in quadrature to the lens's own blur sigma0_px. z is the depth of the support
+// plane seen at the pixel (the part stands at most a millimetre above it, small against
+// the depth of field), so the blur varies across the part as the plane's depth does.
+cv::Mat1f DefocusSigma(const Camera& camera, const Rigid3d& cam_from_support, const CameraSpec& lens, double sigma0_px,
+                       double f_number, double focus_error_mm, const cv::Rect& rect);
 
 }  // namespace flatscan

@@ -51,7 +51,13 @@ TEST(ImageDefects, DrawsEachEffectWithinItsRangeAndTheSameForOneSeed) {
   spec.halo_gain = {0.3, 0.3};
   spec.shot_noise = 0.04;
   spec.motion_um = {1.0, 2.0};
+  spec.f_number = {2.8, 8.0};
+  spec.focus_error_mm = {-3.0, 3.0};
   const ImageDefects d = SampleImageDefects(spec, p.geometry, p.pose, 11);
+  EXPECT_GE(d.f_number, 2.8);
+  EXPECT_LE(d.f_number, 8.0);
+  for (double e : d.focus_error_mm) EXPECT_LE(std::abs(e), 3.0);
+  EXPECT_NE(d.focus_error_mm[0], d.focus_error_mm[1]);  // each camera focused on its own
   for (const Eigen::Vector2d& g : d.gradient) {
     EXPECT_GE(g.norm(), 0.1);
     EXPECT_LE(g.norm(), 0.2);
@@ -143,6 +149,57 @@ TEST(ImageDefects, DustSpecksAreDarkDiscsWhereTheyLie) {
   cv::Mat1b differs = with != without;
   EXPECT_LT(cv::countNonZero(differs), 100);  // a disc of about 4.6 px diameter, blurred
   EXPECT_GT(cv::countNonZero(differs), 10);
+}
+
+// The support plane's depth at camera 1's principal point, by the plane's equation
+// (the principal point's ray is (0, 0, 1) whatever the distortion).
+double DepthAtPrincipalPoint(const Station& st) {
+  const Eigen::Vector3d n = st.cam1_from_support.rotation * Eigen::Vector3d::UnitZ();
+  return n.dot(st.cam1_from_support.translation) / n.z();
+}
+
+TEST(ImageDefects, DefocusFollowsTheThinLensAndGrowsAwayFromTheFocusedDepth) {
+  const Station st = BuildStation(ScenePreset("compact"));
+  const Camera& cam = st.rig.left;
+  const CameraSpec& lens = st.scene.left_camera;
+  const cv::Rect centre(static_cast<int>(cam.cx), static_cast<int>(cam.cy), 1, 1);
+  const auto sigma_at = [&](double n, double focus_error, const cv::Rect& r) {
+    return DefocusSigma(cam, st.cam1_from_support, lens, 0.8, n, focus_error, r);
+  };
+  // No aperture given: the lens blur alone.
+  EXPECT_FLOAT_EQ(sigma_at(0.0, 3.0, centre)(0, 0), 0.8f);
+  // Focused on the plane at the centre: the lens blur alone there.
+  EXPECT_NEAR(sigma_at(2.8, 0.0, centre)(0, 0), 0.8, 1e-4);
+  // Focused 3 mm beyond it: c = (f/N) f e / (z (z + e - f)), sigma = hypot(0.8, c / 4).
+  const double z = DepthAtPrincipalPoint(st), f = 12.0, pitch = 3.45e-3;
+  const double c_px = (f / 2.8) * f * 3.0 / (z * (z + 3.0 - f)) / pitch;
+  EXPECT_NEAR(sigma_at(2.8, 3.0, centre)(0, 0), std::hypot(0.8, c_px / 4), 2e-3);
+  EXPECT_GT(c_px, 1.0);  // about 1.1 px of blur circle: f/2.8 at 150 mm
+  // The defocus part of the variance goes as 1/N^2.
+  const cv::Rect corner(0, 0, 1, 1);
+  const double v4 = std::pow(sigma_at(4.0, 0.0, corner)(0, 0), 2) - 0.64;
+  const double v8 = std::pow(sigma_at(8.0, 0.0, corner)(0, 0), 2) - 0.64;
+  EXPECT_GT(v8, 0.0);
+  EXPECT_NEAR(v4 / v8, 4.0, 1e-3);
+  // The blur varies across the image with the plane's depth (the camera looks at it
+  // at an angle): within one part's width (400 px) it changes by a tenth of a pixel.
+  const cv::Mat1f across = sigma_at(2.8, 0.0, cv::Rect(static_cast<int>(cam.cx) - 200, static_cast<int>(cam.cy), 401, 1));
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(across, &lo, &hi);
+  EXPECT_GT(hi - lo, 0.02);
+}
+
+TEST(ImageDefects, DefocusWidensTheEdgesButDoesNotMoveThePart) {
+  PlacedPart p;
+  ImageDefects d;
+  d.f_number = 2.8;
+  d.focus_error_mm = {5.0, -5.0};
+  for (RigSide side : {RigSide::kLeft, RigSide::kRight}) {
+    const cv::Mat1b with = p.Render(side, d), without = p.Render(side, {});
+    EXPECT_GT(cv::norm(with, without, cv::NORM_L1), 1000.0);
+    const cv::Point2d shift = DarkCentroid(with) - DarkCentroid(without);
+    EXPECT_LT(std::hypot(shift.x, shift.y), 0.05);
+  }
 }
 
 }  // namespace

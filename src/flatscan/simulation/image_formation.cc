@@ -83,6 +83,51 @@ void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>&
   }
 }
 
+namespace {
+
+constexpr double kMaxSigmaLevelStepPx = 0.05;
+
+cv::Rect Grow(const cv::Rect& r, int by) { return {r.x - by, r.y - by, r.width + 2 * by, r.height + 2 * by}; }
+
+// `source(rect)` blurred with sigma `sigma_px` (the pixels around `rect` feed the kernel).
+cv::Mat1f GaussianBlurOf(const cv::Mat1f& source, const cv::Rect& rect, double sigma_px) {
+  if (sigma_px <= 0) return source(rect).clone();
+  const int ksize = 2 * static_cast<int>(std::ceil(4 * sigma_px)) + 1;
+  cv::Mat1f out;
+  cv::GaussianBlur(source(rect), out, cv::Size(ksize, ksize), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  return out;
+}
+
+}  // namespace
+
+void BlurRegionsVarying(cv::Mat1f& image, const SigmaMap& sigma_px, const std::vector<cv::Rect>& regions) {
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  const cv::Mat1f original = image.clone();  // overlapping regions are not blurred twice
+  for (const cv::Rect& region : regions.empty() ? std::vector<cv::Rect>{whole} : regions) {
+    if ((region & whole).empty()) continue;
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(sigma_px(region & whole), &lo, &hi);
+    const cv::Rect write = Grow(region, static_cast<int>(std::ceil(4 * hi)) + 2) & whole;
+    const cv::Mat1f sigma = sigma_px(write);
+    cv::minMaxLoc(sigma, &lo, &hi);
+    const int levels = hi - lo < 1e-9 ? 1 : 1 + static_cast<int>(std::ceil((hi - lo) / kMaxSigmaLevelStepPx));
+    const double step = levels > 1 ? (hi - lo) / (levels - 1) : 1.0;
+    std::vector<cv::Mat1f> blurred;
+    for (int k = 0; k < levels; ++k) blurred.push_back(GaussianBlurOf(original, write, lo + k * step));
+    for (int y = 0; y < write.height; ++y) {
+      float* out = image.ptr<float>(write.y + y) + write.x;
+      const float* s = sigma.ptr<float>(y);
+      for (int x = 0; x < write.width; ++x) {
+        const double t = (s[x] - lo) / step;
+        const int k = std::clamp(static_cast<int>(t), 0, std::max(0, levels - 2));
+        const double w = levels > 1 ? std::clamp(t - k, 0.0, 1.0) : 0.0;
+        const float below = blurred[k](y, x), above = blurred[std::min(k + 1, levels - 1)](y, x);
+        out[x] = static_cast<float>((1 - w) * below + w * above);
+      }
+    }
+  }
+}
+
 cv::Mat1b QuantizeWithNoise(const cv::Mat1f& image, double noise_sigma, uint64_t seed, double shot_noise) {
   cv::Mat1b out(image.size());
   const auto& quantiles = NormalQuantiles();

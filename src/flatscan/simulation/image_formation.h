@@ -2,6 +2,7 @@
 // From scene radiance to an 8-bit image: irradiance (linear grey levels), lens blur
 // (Gaussian PSF), sensor noise (Gaussian), rounding and clipping to 8 bits.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -22,6 +23,17 @@ void BlendCoverage(cv::Mat1f& image, const CoverageTile& tile, double grey);
 // grown by 4 sigma (elsewhere the image is smooth and blur would not change it by
 // more than 1e-4 grey). Empty regions: the whole image.
 void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>& regions);
+
+// The blur's sigma (px) at every pixel of a rectangle of the image.
+using SigmaMap = std::function<cv::Mat1f(const cv::Rect&)>;
+
+// Space-varying Gaussian blur (a lens whose defocus changes across the image), inside
+// `regions` as BlurRegions: the pixel p takes the blur of sigma sigma_px(p). Each region
+// is blurred at sigma levels at most 0.05 px apart spanning the map's range there, and
+// each pixel blends the two levels around its sigma linearly (exact at a level; between
+// two levels s1, s2 the blend's second moment is off by at most (s2 - s1)^2 / 4 =
+// 0.0006 px^2). The map must vary slowly (over many kernel widths).
+void BlurRegionsVarying(cv::Mat1f& image, const SigmaMap& sigma_px, const std::vector<cv::Rect>& regions);
 
 // Adds Gaussian noise (deterministic for `seed`, independent of the number of
 // threads), rounds and clips to 8 bits. The noise's variance at a pixel of value I is

@@ -244,6 +244,8 @@ void BindScene(SceneConfig& s, Binder& b) {
     b.Number("halo_width_px", e.halo_width_px, 0.1, 50.0);
     b.Number("shot_noise", e.shot_noise, 0.0, 10.0);
     b.RangeField("motion_um", e.motion_um, 0.0, 1000.0);
+    b.RangeField("f_number", e.f_number, 0.0, 64.0);
+    b.RangeField("focus_error_mm", e.focus_error_mm, -100.0, 100.0);
   });
   b.Section("markers", [&] {
     b.Number("inner_radius_mm", s.markers.inner_radius_mm, 0.05, 100.0);
@@ -295,6 +297,10 @@ void CheckConsistency(const SceneConfig& s, const std::string& source) {
   for (const CameraSpec* c : {&s.left_camera, &s.right_camera})
     if (c->distortion.size() != 4 && c->distortion.size() != 5 && c->distortion.size() != 8)
       ThrowInputError("{}: camera.distortion must have 4, 5 or 8 coefficients", source);
+  const Range& n = s.image_effects.f_number;
+  if (n.hi > 0 && n.lo < 0.7)  // faster than f/0.7 no lens is; 0 alone means no defocus
+    ThrowInputError("{}: image_effects.f_number must be 0 (no defocus) or apertures from f/0.7 (got [{}, {}])", source,
+                    n.lo, n.hi);
 }
 
 // cv::FileNode tree -> json, so YAML and JSON scene files share one validator.

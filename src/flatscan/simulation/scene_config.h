@@ -90,6 +90,12 @@ struct ImageEffectsSpec {
   // camera 2's image it is displaced by this many micrometres, rigidly, in a random 3D
   // direction.
   Range motion_um = {0.0, 0.0};
+  // Depth of field: the lenses at aperture f/N (N drawn from f_number; 0: no defocus),
+  // each focused focus_error_mm (drawn per camera) beyond the support plane's depth at
+  // its image centre. The blur then varies across the part with the plane's depth
+  // (simulation/image_defects.h, DefocusSigma).
+  Range f_number = {0.0, 0.0};
+  Range focus_error_mm = {0.0, 0.0};
 };
 
 struct MarkerSpec {

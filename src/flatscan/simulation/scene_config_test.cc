@@ -90,6 +90,11 @@ TEST(SceneConfig, BadValuesNameTheFileAndField) {
   WriteText(json, R"({"part": {"side_faces": "centre"}})");
   EXPECT_EQ(LoadSceneFile(json).part.side_faces, SideFaceModel::kCentreNormal);
   EXPECT_EQ(ScenePreset("paper").part.side_faces, SideFaceModel::kLocalNormal);
+  WriteText(json, R"({"image_effects": {"f_number": [0.5, 4]}})");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }),
+            j + ": image_effects.f_number must be 0 (no defocus) or apertures from f/0.7 (got [0.5, 4])");
+  WriteText(json, R"({"image_effects": {"f_number": [2.8, 8], "focus_error_mm": [-3, 3]}})");
+  EXPECT_EQ(LoadSceneFile(json).image_effects.focus_error_mm.hi, 3.0);
   WriteText(json, R"({"preset": "nope"})");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), "unknown preset 'nope' (expected one of: paper, compact)");
   WriteText(json, "{not json");
