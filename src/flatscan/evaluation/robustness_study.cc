@@ -44,6 +44,12 @@ std::vector<ImageEffectCase> RealisticImageEffects() {
          s.image_effects.f_number = {4.0, 11.0};
          s.image_effects.focus_error_mm = {-2.0, 2.0};
        }},
+      {"burrs (real geometry)", "2-6 burrs of 20-50 um on the outline, half under the rim (the part may rest on one)",
+       [](SceneConfig& s) {
+         s.part.burrs = {2, 6};
+         s.part.burr_size_um = {20, 50};
+         s.part.burr_under_rim_fraction = 0.5;
+       }},
   };
   // Together: every effect but the halo, which makes every part "not measured" (the
   // inspection detects it: docs/inspection.md, "Image defects").

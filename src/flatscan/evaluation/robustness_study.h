@@ -1,9 +1,10 @@
 #pragma once
 // Robustness to the defects of real images (docs/evaluation.md, "Robustness"): one lot
 // of parts rendered ideal and then with each image effect in turn (simulation/
-// image_defects.h) within its realistic range, inspected with the same calibration.
-// The parts, their placements and their sensor noise are the same in every row; only
-// the effect changes. A part the inspection cannot measure with the effect is counted
+// image_defects.h) within its realistic range, and with burrs (simulation/part_model.h,
+// real geometry: the truth follows them), inspected with the same calibration. The
+// parts, their placements and their sensor noise are the same in every row; only the
+// effect changes. A part the inspection cannot measure with the effect is counted
 // as "not measured" (with its reason), never as a verdict.
 #include <functional>
 #include <string>
@@ -19,8 +20,8 @@ struct ImageEffectCase {
   std::function<void(SceneConfig&)> apply;
 };
 
-// Each effect of issue 12 section 3 with its realistic range, and all of them but the
-// halo together (a halo makes every part "not measured").
+// Each effect of issue 12 section 3 with its realistic range (the image effects, then
+// burrs), and all of them but the halo together (a halo makes every part "not measured").
 std::vector<ImageEffectCase> RealisticImageEffects();
 
 struct RobustnessRow {

@@ -40,7 +40,7 @@ TEST(RobustnessStudy, ComparesTheSamePartsIdealAndWithTheEffect) {
 
 TEST(RobustnessStudy, EachRealisticEffectChangesTheSceneAndAllButTheHaloTogether) {
   const std::vector<ImageEffectCase> cases = RealisticImageEffects();
-  ASSERT_EQ(cases.size(), 8u);
+  ASSERT_EQ(cases.size(), 9u);
   SceneConfig all = ScenePreset("compact");
   cases.back().apply(all);
   for (size_t i = 0; i + 1 < cases.size(); ++i) {
@@ -54,6 +54,7 @@ TEST(RobustnessStudy, EachRealisticEffectChangesTheSceneAndAllButTheHaloTogether
   EXPECT_EQ(all.image_effects.motion_um.hi, 2.0);
   EXPECT_EQ(all.lighting.vignetting, 0.2);
   EXPECT_EQ(all.image_effects.f_number.lo, 4.0);
+  EXPECT_EQ(all.part.burrs[1], 6);
   EXPECT_EQ(all.image_effects.halo_gain.hi, 0.0);  // together: all but the halo
 }
 

@@ -113,7 +113,10 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
   SimulatedPart part;
   part.id = id;
   const PartSpec& spec = st.scene.part;
-  part.geometry = std::move(geometry);
+  // Burrs from a seed peeked from `rng` without advancing it: the placement below is the
+  // same with and without them.
+  Random peek = rng;
+  part.geometry = WithBurrs(std::move(geometry), spec, Random::DeriveSeed(peek.NextU64(), 0xB0AAull));
   const PartGeometry& g = part.geometry;
   // Nominal placement: random rotation, random position where the whole part is seen
   // by both cameras.

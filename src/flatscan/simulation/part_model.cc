@@ -42,6 +42,8 @@ double SegmentMinimum(const F& f, double a, double b) {
 double PartGeometry::OuterSdf(const Eigen::Vector2d& p) const {
   double d = RoundedRectSdf(p, half_width, half_height, corner_radius);
   for (const Notch& n : notches) d = std::max(d, -BoxSdf(p, n.center, n.half_size));
+  for (const Burr& b : burrs)
+    if (!b.under_rim) d = std::min(d, CircleSdf(p, b.centre, b.size_mm));
   return d;
 }
 
@@ -94,6 +96,28 @@ Eigen::Vector2d PartGeometry::SheetCoordinates(const Eigen::Vector3d& x, double*
 }
 
 std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) const {
+  std::vector<Eigen::Vector2d> out = SampleOutlineWithoutBurrs(spacing);
+  bool any = false;
+  for (const Burr& b : burrs) any = any || !b.under_rim;
+  if (!any) return out;
+  // The outline points a burr covers are inside the part now; the burr's own arc, at
+  // most a quarter of its size apart, takes their place.
+  std::vector<Eigen::Vector2d> kept;
+  for (const Eigen::Vector2d& p : out)
+    if (OuterSdf(p) > -1e-9) kept.push_back(p);
+  for (const Burr& b : burrs) {
+    if (b.under_rim) continue;
+    const int n = std::max(16, static_cast<int>(std::ceil(2 * M_PI * b.size_mm / std::min(spacing, b.size_mm / 4))));
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      const Eigen::Vector2d p = b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a));
+      if (std::abs(OuterSdf(p)) < 1e-9) kept.push_back(p);
+    }
+  }
+  return kept;
+}
+
+std::vector<Eigen::Vector2d> PartGeometry::SampleOutlineWithoutBurrs(double spacing) const {
   std::vector<Eigen::Vector2d> out;
   const double r = corner_radius;
   const double sx = half_width - r, sy = half_height - r;
@@ -155,6 +179,8 @@ std::vector<Eigen::Vector3d> PartGeometry::SampleRim(double spacing) const {
 
 std::vector<Eigen::Vector3d> PartGeometry::SampleBottomSurface(double spacing) const {
   std::vector<Eigen::Vector3d> points = SampleRim(spacing);
+  for (const Burr& b : burrs)  // the tip of a burr under the rim
+    if (b.under_rim) points.push_back(SheetPoint(b.centre, -wall_height - b.size_mm));
   if (wall_height > 0) return points;  // the lid's underside is H above the rim
   for (const Hole& h : holes) {
     const int n = std::max(8, static_cast<int>(std::ceil(2 * M_PI * h.radius / spacing)));
@@ -355,6 +381,7 @@ double PartOccluder::RaySignedDistance(const Ray& ray) const {
 std::vector<Eigen::Vector3d> PartOccluder::BoundingPoints() const {
   const PartGeometry& g = geometry_;
   double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo, reach = 0;
+  for (const Burr& b : g.burrs) reach = std::max(reach, b.size_mm);
   for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.5)) {
     const Eigen::Vector3d rim = g.RimPoint(p), top = g.SheetPoint(p, g.thickness);
     z_lo = std::min(z_lo, rim.z());
@@ -388,6 +415,22 @@ PartTruth RestAndPlacePart(const PartGeometry& geometry, double rotation_deg, co
   truth.lsq_pv_mm = values.lsq_pv_mm;
   truth.minzone_mm = values.minzone_mm;
   return truth;
+}
+
+PartGeometry WithBurrs(PartGeometry g, const PartSpec& spec, uint64_t seed) {
+  if (spec.burrs[1] <= 0) return g;
+  Random rng(seed);
+  const int n = spec.burrs[0] + static_cast<int>(std::floor(rng.Uniform() * (spec.burrs[1] - spec.burrs[0] + 1)));
+  const int under = static_cast<int>(std::lround(spec.burr_under_rim_fraction * n));
+  const std::vector<Eigen::Vector2d> outline = g.SampleOuterOutline(0.05);
+  for (int i = 0; i < n && !outline.empty(); ++i) {
+    Burr b;
+    b.centre = outline[std::min(outline.size() - 1, static_cast<size_t>(rng.Uniform() * outline.size()))];
+    b.size_mm = 1e-3 * rng.Uniform(spec.burr_size_um.lo, spec.burr_size_um.hi);
+    b.under_rim = i < under;
+    g.burrs.push_back(b);
+  }
+  return g;
 }
 
 namespace {
@@ -430,6 +473,11 @@ nlohmann::json PartGeometryToJson(const PartGeometry& g) {
   j["notches"] = nlohmann::json::array();
   for (const Notch& n : g.notches)
     j["notches"].push_back({{"centre_mm", {n.center.x(), n.center.y()}}, {"half_size_mm", {n.half_size.x(), n.half_size.y()}}});
+  if (!g.burrs.empty()) {  // only when the scene asks for burrs: truth files without them stay as they were
+    j["burrs"] = nlohmann::json::array();
+    for (const Burr& b : g.burrs)
+      j["burrs"].push_back({{"centre_mm", {b.centre.x(), b.centre.y()}}, {"size_mm", b.size_mm}, {"under_rim", b.under_rim}});
+  }
   j["warp_mm"] = {{"bend_x", g.warp.bend_x}, {"bend_y", g.warp.bend_y}, {"twist", g.warp.twist},
                   {"c30", g.warp.c30},       {"c21", g.warp.c21},       {"c12", g.warp.c12},
                   {"c03", g.warp.c03}};

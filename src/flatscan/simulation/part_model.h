@@ -43,6 +43,16 @@ struct Notch {
   Eigen::Vector2d half_size;
 };
 
+// A burr left by the cutting at an outer outline point (docs/simulator.md, "Burrs"): a
+// half-disc of radius size_mm standing out of the outline in the sheet's plane, or
+// (under_rim) a sliver standing size_mm below the bottom rim there, which the part may
+// rest on.
+struct Burr {
+  Eigen::Vector2d centre;  // on the outline without burrs
+  double size_mm = 0.0;
+  bool under_rim = false;
+};
+
 struct Warp {
   double bend_x = 0, bend_y = 0, twist = 0;
   double c30 = 0, c21 = 0, c12 = 0, c03 = 0;
@@ -54,13 +64,15 @@ struct PartGeometry {
   double corner_radius = 0.5;
   std::vector<Hole> holes;
   std::vector<Notch> notches;
+  std::vector<Burr> burrs;
   double thickness = 0.2;    // t, mm
   double wall_height = 0.0;  // H, mm (0: flat sheet)
   Warp warp;
   SideFaceModel side_faces = SideFaceModel::kLocalNormal;  // local or centre (see the top of this file)
 
   // Signed distance (mm, negative inside) to the outer outline (rounded rectangle
-  // minus notches), and to the footprint (also minus holes).
+  // minus notches, plus the burrs in the sheet's plane), and to the footprint (also
+  // minus holes).
   double OuterSdf(const Eigen::Vector2d& p) const;
   double FootprintSdf(const Eigen::Vector2d& p) const;
   // w(x, y) and its gradient.
@@ -78,8 +90,10 @@ struct PartGeometry {
   // Total height of the silhouette-forming side face: t + H.
   double SideHeight() const { return thickness + wall_height; }
 
-  // Points on the outer outline, about `spacing` mm apart (part frame, 2D).
+  // Points on the outer outline, about `spacing` mm apart (part frame, 2D); a burr's
+  // arc more densely (a quarter of its size apart).
   std::vector<Eigen::Vector2d> SampleOuterOutline(double spacing) const;
+  std::vector<Eigen::Vector2d> SampleOutlineWithoutBurrs(double spacing) const;
   // Bottom rim points (3D, part frame).
   std::vector<Eigen::Vector3d> SampleRim(double spacing) const;
   // Samples of the whole bottom surface (rim, hole edges, interior), for the rest pose.
@@ -90,6 +104,10 @@ struct PartGeometry {
 
 // Random part from the scene's part ranges (and its side-face model).
 PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng);
+
+// `geometry` with burrs drawn from spec.burrs at random outline points (none when
+// spec.burrs is [0, 0]). Deterministic for `seed`; the part's shape is otherwise unchanged.
+PartGeometry WithBurrs(PartGeometry geometry, const PartSpec& spec, uint64_t seed);
 
 // A part placed on the support: support_from_part includes the rest pose.
 class PartOccluder : public Occluder {

@@ -1,5 +1,6 @@
 #include "flatscan/simulation/part_model.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -121,6 +122,53 @@ TEST(PartModel, SignedDistancesOfOutlineHolesAndNotches) {
   EXPECT_NEAR(g.OuterSdf({7.0, 0.0}), -0.4, 1e-12);  // 1 mm from the edge, 0.4 mm from the notch
   EXPECT_NEAR(g.OuterSdf({8.0 + std::sqrt(2.0), 6.0 + std::sqrt(2.0)}), std::hypot(2 + std::sqrt(2.0), 2 + std::sqrt(2.0)) - 2.0, 1e-12);
   for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.1)) EXPECT_NEAR(g.OuterSdf(p), 0.0, 1e-9);
+}
+
+// A burr in the sheet's plane is part of the outline (its arc is sampled, the rim runs
+// round it); a burr under the rim is what the part rests on: a flat sheet on a 50 um burr
+// at the middle of one short edge stands on it and the opposite edge, so that edge's rim
+// is 50 um up and the flatness is 50 um (what a feeler gauge would find).
+TEST(PartModel, BurrsStandOutOfTheOutlineOrUnderTheRim) {
+  PartGeometry g = SharpRectangle();
+  g.burrs.push_back({Eigen::Vector2d(2.0, 6.0), 0.04, false});
+  EXPECT_NEAR(g.OuterSdf({2.0, 6.04}), 0.0, 1e-12);
+  EXPECT_NEAR(g.OuterSdf({2.0, 6.05}), 0.01, 1e-12);
+  double top = 0;
+  int on_burr = 0;
+  for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.1)) {
+    EXPECT_NEAR(g.OuterSdf(p), 0.0, 1e-9);
+    top = std::max(top, p.y());
+    on_burr += p.y() > 6.0 + 1e-9;
+  }
+  EXPECT_NEAR(top, 6.04, 1e-3);
+  EXPECT_GE(on_burr, 7);  // the arc a quarter of the burr's size apart
+  EXPECT_NEAR(RestAndPlacePart(g, 0.0, {0, 0}).flatness_mm, 0.0, 1e-9);  // flat: the arc is at rim level
+
+  g.burrs.push_back({Eigen::Vector2d(8.0, 0.0), 0.05, true});
+  const PartTruth truth = RestAndPlacePart(g, 0.0, {0, 0});
+  ExpectThreeContactsOnPlane(g, truth);
+  EXPECT_NEAR(truth.flatness_mm, 0.05, 1e-4);
+  EXPECT_NEAR(truth.rim.front().z(), 0.05, 1e-4);  // the rim over the burr (x = 8)
+}
+
+TEST(PartModel, WithBurrsDrawsThemOnTheOutlineWithinTheirRange) {
+  PartSpec spec;
+  spec.burrs = {4, 4};
+  spec.burr_size_um = {20, 50};
+  spec.burr_under_rim_fraction = 0.5;
+  const PartGeometry plain = SharpRectangle();
+  const PartGeometry g = WithBurrs(plain, spec, 9);
+  ASSERT_EQ(g.burrs.size(), 4u);
+  int under = 0;
+  for (const Burr& b : g.burrs) {
+    EXPECT_NEAR(plain.OuterSdf(b.centre), 0.0, 1e-9);
+    EXPECT_GE(b.size_mm, 0.020);
+    EXPECT_LE(b.size_mm, 0.050);
+    under += b.under_rim;
+  }
+  EXPECT_EQ(under, 2);
+  EXPECT_EQ(WithBurrs(plain, spec, 9).burrs[3].centre, g.burrs[3].centre);
+  EXPECT_TRUE(WithBurrs(plain, PartSpec{}, 9).burrs.empty());  // the default: none
 }
 
 TEST(PartModel, CenterOfMassOfSymmetricSheetIsAtMidThickness) {

@@ -140,6 +140,11 @@ struct PartSpec {
   // If hi > 0: the warp drawn above is scaled so the part's true flatness_mm is uniform
   // in [lo, hi] (a lot with a known spread around the tolerance).
   Range flatness_mm = {0.0, 0.0};
+  // Burrs left by the cutting (simulation/part_model.h, Burr): their count, how far each
+  // stands out of the outline (or below the rim), and the share under the rim.
+  std::array<int, 2> burrs = {0, 0};
+  Range burr_size_um = {20.0, 50.0};
+  double burr_under_rim_fraction = 0.5;
   Range rotation_deg = {0.0, 360.0};
   double jitter_mm = 0.1;             // placement jitter between repeated shots
   double jitter_deg = 0.2;
