@@ -325,10 +325,16 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
     }
     if (!chain.empty()) chains.push_back(chain);
   }
-  if (model) chains = LinkChainEnds(std::move(chains));
-  for (std::vector<ChainPoint>& chain : chains) {
+  std::vector<LinkedChain> linked;
+  if (model) {
+    linked = LinkChainEnds(std::move(chains));
+  } else {  // the reference rows keep the chains as walked
+    for (std::vector<ChainPoint>& c : chains) linked.push_back({std::move(c), false});
+  }
+  for (LinkedChain& link : linked) {
+    std::vector<ChainPoint>& chain = link.points;
     if (static_cast<int>(chain.size()) < options.min_contour_points) continue;
-    const bool closed = chain.size() > 4 && (chain.front().p - chain.back().p).norm() < 2.0;
+    const bool closed = link.ring || (chain.size() > 4 && (chain.front().p - chain.back().p).norm() < 2.0);
     if (model) SmoothAndCorrectChain(chain, closed, blur_variance);
     ContourInfo info;
     info.begin = static_cast<int>(result.points.size());

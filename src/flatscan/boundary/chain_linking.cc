@@ -41,54 +41,69 @@ bool CanJoin(const End& a, const End& b, const ChainLinkOptions& options) {
   return a.heading.dot(towards) >= options.min_heading_cos && b.heading.dot(-towards) >= options.min_heading_cos;
 }
 
+// Drops up to kMaxTrimmed points at the end of `out` that run past `start` along
+// `forward` (a unit direction), and a last point that is `start` again.
+void TrimPast(std::vector<ChainPoint>& out, const Eigen::Vector2d& start, const Eigen::Vector2d& forward) {
+  for (int k = 0; k < kMaxTrimmed && out.size() > 1 && (out.back().p - start).dot(forward) > -kSamePointPx; ++k)
+    out.pop_back();
+  if (out.size() > 1 && (out.back().p - start).squaredNorm() < kSamePointPx * kSamePointPx) out.pop_back();
+}
+
+// The direction a chain starts in (unit), over its first few points.
+Eigen::Vector2d StartDirection(const std::vector<ChainPoint>& chain) {
+  return (chain[std::min<size_t>(kHeadingSpan, chain.size() - 1)].p - chain[0].p).normalized();
+}
+
 // Appends `next` (already oriented) to `out`, trimming out's points that run past
 // next's start along next's direction.
 void Append(std::vector<ChainPoint>& out, const std::vector<ChainPoint>& next) {
-  if (!out.empty() && next.size() >= 2) {
-    Eigen::Vector2d forward = next[std::min<size_t>(kHeadingSpan, next.size() - 1)].p - next[0].p;
-    forward.normalize();
-    for (int k = 0; k < kMaxTrimmed && out.size() > 1 && (out.back().p - next[0].p).dot(forward) > -kSamePointPx; ++k)
-      out.pop_back();
-  }
+  if (!out.empty() && next.size() >= 2) TrimPast(out, next[0].p, StartDirection(next));
   for (const ChainPoint& point : next)
     if (out.empty() || (out.back().p - point.p).squaredNorm() >= kSamePointPx * kSamePointPx) out.push_back(point);
 }
 
 }  // namespace
 
-std::vector<std::vector<ChainPoint>> LinkChainEnds(std::vector<std::vector<ChainPoint>> chains,
-                                                   const ChainLinkOptions& options) {
+std::vector<LinkedChain> LinkChainEnds(std::vector<std::vector<ChainPoint>> chains, const ChainLinkOptions& options) {
   const int n = static_cast<int>(chains.size());
   std::vector<End> ends(2 * n);
   for (int c = 0; c < n; ++c)
     if (chains[c].size() >= 2) ends[2 * c] = EndOf(chains[c], false), ends[2 * c + 1] = EndOf(chains[c], true);
-  // Candidate joins between ends of different chains, closest first (ties in index order).
+  // Candidate joins, closest first (ties in index order): ends of different chains, and a
+  // chain's own two ends (it closes into a ring) when it is long enough to be one.
   std::vector<std::tuple<double, int, int>> candidates;
   for (int a = 0; a < 2 * n; ++a) {
     if (chains[a / 2].size() < 2) continue;
-    for (int b = a + 1; b < 2 * n; ++b)
-      if (b / 2 != a / 2 && chains[b / 2].size() >= 2 && CanJoin(ends[a], ends[b], options))
+    for (int b = a + 1; b < 2 * n; ++b) {
+      const bool same = b / 2 == a / 2;
+      if (same && static_cast<int>(chains[a / 2].size()) < options.min_ring_points) continue;
+      if (chains[b / 2].size() >= 2 && CanJoin(ends[a], ends[b], options))
         candidates.emplace_back((ends[a].p - ends[b].p).norm(), a, b);
+    }
   }
   std::sort(candidates.begin(), candidates.end());
   std::vector<int> partner(2 * n, -1);
   for (const auto& [distance, a, b] : candidates)
     if (partner[a] < 0 && partner[b] < 0) partner[a] = b, partner[b] = a;
 
-  // Walk each path of joined chains from a free end; what is left are rings.
+  // Walk each path of joined chains from a free end; what is left are rings, whose last
+  // join (the seam, back to the first piece's start) is trimmed like the others.
   std::vector<char> used(n, 0);
-  std::vector<std::vector<ChainPoint>> out;
-  auto walk = [&](int c, int entry_end) {
-    std::vector<ChainPoint> joined;
-    for (int end = entry_end; c >= 0 && !used[c];) {
+  std::vector<LinkedChain> out;
+  auto walk = [&](int first, int entry_end) {
+    LinkedChain joined;
+    int end = entry_end;
+    for (int c = first; c >= 0 && !used[c];) {
       used[c] = 1;
       std::vector<ChainPoint>& piece = chains[c];
       if (end % 2 == 1) std::reverse(piece.begin(), piece.end());  // entered at its back
-      Append(joined, piece);
-      const int exit = end ^ 1, next = partner[exit];
-      c = next < 0 ? -1 : next / 2;
-      end = next;
+      Append(joined.points, piece);
+      end = partner[end ^ 1];
+      c = end < 0 ? -1 : end / 2;
     }
+    joined.ring = end >= 0 && end == entry_end;
+    if (joined.ring && joined.points.size() >= 2)
+      TrimPast(joined.points, joined.points.front().p, StartDirection(joined.points));
     out.push_back(std::move(joined));
   };
   for (int c = 0; c < n; ++c)

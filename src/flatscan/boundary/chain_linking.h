@@ -22,14 +22,21 @@ struct ChainLinkOptions {
   // Each end heads toward the other: the gap's direction within acos(0.5) = 60 degrees of
   // the end's own direction (over its last few points).
   double min_heading_cos = 0.5;
+  // A chain's own two ends are joined (a ring) only when it has at least this many points.
+  int min_ring_points = 8;
+};
+
+struct LinkedChain {
+  std::vector<ChainPoint> points;
+  bool ring = false;  // its last point joins its first (closed)
 };
 
 // Joins the chains end to end, closest ends first, each end at most once; a chain is
 // reversed where needed. Points of the first piece that run past the start of the
-// second (a spur refined onto the edge) are trimmed. Chains of fewer than 2 points are
-// returned as they are. Deterministic: the output does not depend on anything but the
-// input's order.
-std::vector<std::vector<ChainPoint>> LinkChainEnds(std::vector<std::vector<ChainPoint>> chains,
-                                                   const ChainLinkOptions& options = {});
+// second (a spur refined onto the edge) are trimmed. A path that comes back to its start
+// is a ring (its seam trimmed the same way). Chains of fewer than 2 points are returned
+// as they are. Deterministic: the output depends only on the input and its order.
+std::vector<LinkedChain> LinkChainEnds(std::vector<std::vector<ChainPoint>> chains,
+                                       const ChainLinkOptions& options = {});
 
 }  // namespace flatscan

@@ -28,10 +28,37 @@ TEST(ChainLinking, JoinsThePiecesOfOneEdgeIntoOneChainWhateverTheirDirection) {
   const std::vector<std::vector<ChainPoint>> pieces = {Arc(0.0, 2.0), Arc(4.0, 2.0 + gap), Arc(4.0 + gap, 2 * M_PI - gap)};
   const auto joined = LinkChainEnds(pieces);
   ASSERT_EQ(joined.size(), 1u);
-  const std::vector<ChainPoint>& ring = joined[0];
+  EXPECT_TRUE(joined[0].ring);
+  const std::vector<ChainPoint>& ring = joined[0].points;
   EXPECT_EQ(ring.size(), pieces[0].size() + pieces[1].size() + pieces[2].size());
   EXPECT_LT((ring.front().p - ring.back().p).norm(), 2.0);  // closed by boundary.cc's rule
   for (size_t i = 1; i < ring.size(); ++i) EXPECT_LT((ring[i].p - ring[i - 1].p).norm(), 1.6) << i;
+}
+
+TEST(ChainLinking, ARingJoinedAcrossGapsWiderThanTheClosingRuleIsARing) {
+  // Three pieces 2.5 px apart (boundary.cc's own rule closes only under 2 px): whichever
+  // join is the seam, the result is one ring; and one chain whose ends are 2.5 px apart
+  // closes on itself.
+  const double gap = 2.5 / 40.0;
+  const auto joined = LinkChainEnds({Arc(0.0, 2.0), Arc(2.0 + gap, 4.0), Arc(4.0 + gap, 2 * M_PI - gap)});
+  ASSERT_EQ(joined.size(), 1u);
+  EXPECT_TRUE(joined[0].ring);
+  const auto single = LinkChainEnds({Arc(0.0, 2 * M_PI - gap)});
+  ASSERT_EQ(single.size(), 1u);
+  EXPECT_TRUE(single[0].ring);
+  // ... but not a short chain (under min_ring_points), nor a half circle.
+  EXPECT_FALSE(LinkChainEnds({Arc(0.0, 0.1)})[0].ring);
+  EXPECT_FALSE(LinkChainEnds({Arc(0.0, M_PI)})[0].ring);
+}
+
+TEST(ChainLinking, ChainsTooShortForADirectionComeBackAsTheyAre) {
+  std::vector<ChainPoint> lone(1);
+  lone[0].p = Eigen::Vector2d(40.0, 0.0);
+  lone[0].normal = Eigen::Vector2d(1.0, 0.0);
+  const auto joined = LinkChainEnds({Arc(0.0, 1.0), lone, {}});
+  ASSERT_EQ(joined.size(), 3u);
+  EXPECT_EQ(joined[1].points.size(), 1u);
+  EXPECT_TRUE(joined[2].points.empty());
 }
 
 TEST(ChainLinking, LeavesGapsWiderThanTheLimitAndOppositeEdgesApart) {
@@ -53,9 +80,11 @@ TEST(ChainLinking, TrimsASpurThatRunsPastTheNextPiecesStart) {
   std::vector<ChainPoint> first = Arc(0.0, 1.0 + 2.0 / 40), second = Arc(1.0 + 0.5 / 40, 2.0);
   const auto joined = LinkChainEnds({first, second});
   ASSERT_EQ(joined.size(), 1u);
-  for (size_t i = 1; i < joined[0].size(); ++i) {
-    const Eigen::Vector2d step = joined[0][i].p - joined[0][i - 1].p;
-    const Eigen::Vector2d tangent(-joined[0][i].normal.y(), joined[0][i].normal.x());
+  EXPECT_FALSE(joined[0].ring);
+  const std::vector<ChainPoint>& chain = joined[0].points;
+  for (size_t i = 1; i < chain.size(); ++i) {
+    const Eigen::Vector2d step = chain[i].p - chain[i - 1].p;
+    const Eigen::Vector2d tangent(-chain[i].normal.y(), chain[i].normal.x());
     EXPECT_GT(step.dot(tangent), 0.2) << i;
   }
 }

@@ -93,6 +93,7 @@ RobustnessStudy RunRobustnessStudy(const CalibratedStation& station, const Batch
   if (effects.empty()) effects = RealisticImageEffects();
   CalibratedStation ideal_station = station;
   ideal_station.truth.scene.image_effects = ImageEffectsSpec{};
+  ideal_station.truth.scene.part.burrs = {0, 0};  // the ideal row: no defect of any kind
   RobustnessStudy study;
   study.ideal = RunBatchStudy(ideal_station, options, progress);
   for (const ImageEffectCase& effect : effects) {

@@ -31,7 +31,8 @@ struct ImageAcceptance {
   // Fraction of the backlight's samples at 255: beyond it the clipped profiles bias the
   // edge towards the part.
   double max_saturated_fraction = 0.25;
-  // The edges' blur (Gaussian sigma, px, as the boundary estimates it): the edge profile
+  // The edges' blur (Gaussian sigma, px, as the boundary estimates it, or as given with
+  // `BoundaryOptions::blur_sigma_px` / `inspect --blur`): the edge profile
   // is read over +-6 px (boundary.cc), 3 sigma at 2 px; beyond it the profile is cut
   // short and Canny's chains break into pieces. Measured: an in-focus lens gives 0.8-1.0
   // px; the paper rig at f/2.8 focused 3 mm off the plane 2.0-3.4 px.

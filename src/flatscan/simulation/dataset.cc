@@ -113,8 +113,9 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
   SimulatedPart part;
   part.id = id;
   const PartSpec& spec = st.scene.part;
-  // Burrs from a seed peeked from `rng` without advancing it: the placement below is the
-  // same with and without them.
+  // Burrs from a seed peeked from `rng` without advancing it: the placement below makes
+  // the same random draws with and without them (the same placement unless a burr
+  // changes whether a candidate position keeps the part in view).
   Random peek = rng;
   part.geometry = WithBurrs(std::move(geometry), spec, Random::DeriveSeed(peek.NextU64(), 0xB0AAull));
   const PartGeometry& g = part.geometry;

@@ -5,6 +5,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "flatscan/util/error.h"
 #include "flatscan/util/random.h"
 
 namespace flatscan {
@@ -116,11 +117,14 @@ cv::Rect AddHalo(cv::Mat1f& radiance, const CoverageTile& part, double backlight
 namespace {
 
 // Depth (mm, along the optical axis) of the support plane seen through pixel (u, v);
-// `guess` carries the previous pixel's undistorted ray to start Newton from.
+// `guess` carries the previous pixel's undistorted ray to start Newton from. Where the
+// distortion model cannot be inverted the pinhole ray stands in (the depth varies
+// slowly: the blur there is close).
 double SupportPlaneDepth(const Camera& camera, const Eigen::Vector3d& normal_cam, double offset, double u, double v,
                          Eigen::Vector2d& guess) {
   const Eigen::Vector2d xy = camera.PixelToNormalized({u, v}, guess);
-  if (std::isfinite(xy.x())) guess = xy;
+  guess = std::isfinite(xy.x()) && std::isfinite(xy.y()) ? xy
+                                                         : Eigen::Vector2d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
   return offset / normal_cam.dot(Eigen::Vector3d(guess.x(), guess.y(), 1.0));
 }
 
@@ -133,11 +137,14 @@ cv::Mat1f DefocusSigma(const Camera& camera, const Rigid3d& cam_from_support, co
   // The plane z = 0 of the support frame in the camera frame: n . X = offset.
   const Eigen::Vector3d normal = cam_from_support.rotation * Eigen::Vector3d::UnitZ();
   const double offset = normal.dot(cam_from_support.translation);
-  Eigen::Vector2d guess = camera.PixelToNormalized({camera.cx, camera.cy});
   const double f = lens.focal_length_mm, aperture = f / f_number, pitch = 1e-3 * lens.pixel_size_um;
-  const double z_focus = SupportPlaneDepth(camera, normal, offset, camera.cx, camera.cy, guess) + focus_error_mm;
+  const double z_focus = offset / normal.z() + focus_error_mm;  // the principal point's ray is (0, 0, 1)
+  if (!(z_focus > 1.01 * f))
+    ThrowInputError("image_effects.focus_error_mm: {} mm puts the focus {:.1f} mm from the lens, not beyond its focal "
+                    "length of {} mm (expected a focus error that keeps the focus on the far side of the lens)",
+                    focus_error_mm, z_focus, f);
   for (int y = 0; y < rect.height; ++y) {
-    guess = camera.PixelToNormalized({static_cast<double>(rect.x), static_cast<double>(rect.y + y)});
+    Eigen::Vector2d guess((rect.x - camera.cx) / camera.fx, (rect.y + y - camera.cy) / camera.fy);  // pinhole
     float* row = sigma.ptr<float>(y);
     for (int x = 0; x < rect.width; ++x) {
       const double z = SupportPlaneDepth(camera, normal, offset, rect.x + x, rect.y + y, guess);

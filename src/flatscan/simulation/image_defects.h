@@ -56,7 +56,8 @@ cv::Rect AddHalo(cv::Mat1f& radiance, const CoverageTile& part, double backlight
 
 // Depth of field: the blur's sigma (px) at each pixel of `rect` of a camera whose lens
 // (focal length f = lens.focal_length_mm, pixels lens.pixel_size_um) at aperture f/N is
-// focused `focus_error_mm` beyond the support plane's depth at the image centre (z_f).
+// focused `focus_error_mm` beyond the support plane's depth at the principal point (z_f;
+// InputError if that is not beyond the focal length).
 // A thin lens images a point at depth z as a disc of diameter
 //   c = (f / N) f |z - z_f| / (z (z_f - f))          (mm on the sensor)
 // and a uniform disc of diameter c has the second moment of a Gaussian of sigma c / 4,

@@ -174,7 +174,7 @@ TEST(ImageDefects, DefocusFollowsTheThinLensAndGrowsAwayFromTheFocusedDepth) {
   const double z = DepthAtPrincipalPoint(st), f = 12.0, pitch = 3.45e-3;
   const double c_px = (f / 2.8) * f * 3.0 / (z * (z + 3.0 - f)) / pitch;
   EXPECT_NEAR(sigma_at(2.8, 3.0, centre)(0, 0), std::hypot(0.8, c_px / 4), 2e-3);
-  EXPECT_GT(c_px, 1.0);  // about 1.1 px of blur circle: f/2.8 at 150 mm
+  EXPECT_NEAR(c_px, 2.1, 0.1);  // the blur circle of f/2.8 focused 3 mm beyond 151 mm
   // The defocus part of the variance goes as 1/N^2.
   const cv::Rect corner(0, 0, 1, 1);
   const double v4 = std::pow(sigma_at(4.0, 0.0, corner)(0, 0), 2) - 0.64;
@@ -182,11 +182,12 @@ TEST(ImageDefects, DefocusFollowsTheThinLensAndGrowsAwayFromTheFocusedDepth) {
   EXPECT_GT(v8, 0.0);
   EXPECT_NEAR(v4 / v8, 4.0, 1e-3);
   // The blur varies across the image with the plane's depth (the camera looks at it
-  // at an angle): within one part's width (400 px) it changes by a tenth of a pixel.
+  // at an angle): within one part's width (400 px) it changes by a few hundredths of a
+  // pixel when focused at its centre.
   const cv::Mat1f across = sigma_at(2.8, 0.0, cv::Rect(static_cast<int>(cam.cx) - 200, static_cast<int>(cam.cy), 401, 1));
   double lo = 0, hi = 0;
   cv::minMaxLoc(across, &lo, &hi);
-  EXPECT_GT(hi - lo, 0.02);
+  EXPECT_GT(hi - lo, 0.02) << hi - lo;  // measured 0.039 px
 }
 
 TEST(ImageDefects, DefocusWidensTheEdgesButDoesNotMoveThePart) {

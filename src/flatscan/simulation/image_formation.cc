@@ -110,20 +110,28 @@ void BlurRegionsVarying(cv::Mat1f& image, const SigmaMap& sigma_px, const std::v
     const cv::Rect write = Grow(region, static_cast<int>(std::ceil(4 * hi)) + 2) & whole;
     const cv::Mat1f sigma = sigma_px(write);
     cv::minMaxLoc(sigma, &lo, &hi);
-    const int levels = hi - lo < 1e-9 ? 1 : 1 + static_cast<int>(std::ceil((hi - lo) / kMaxSigmaLevelStepPx));
-    const double step = levels > 1 ? (hi - lo) / (levels - 1) : 1.0;
-    std::vector<cv::Mat1f> blurred;
-    for (int k = 0; k < levels; ++k) blurred.push_back(GaussianBlurOf(original, write, lo + k * step));
-    for (int y = 0; y < write.height; ++y) {
-      float* out = image.ptr<float>(write.y + y) + write.x;
-      const float* s = sigma.ptr<float>(y);
+    const int steps = hi - lo < 1e-9 ? 0 : static_cast<int>(std::ceil((hi - lo) / kMaxSigmaLevelStepPx));
+    const double step = steps > 0 ? (hi - lo) / steps : 1.0;
+    // Each pixel's interval [k, k + 1] between levels and its weight on level k + 1;
+    // the levels are blurred in turn and only two are kept.
+    cv::Mat1i interval(write.size());
+    cv::Mat1f weight(write.size());
+    for (int y = 0; y < write.height; ++y)
       for (int x = 0; x < write.width; ++x) {
-        const double t = (s[x] - lo) / step;
-        const int k = std::clamp(static_cast<int>(t), 0, std::max(0, levels - 2));
-        const double w = levels > 1 ? std::clamp(t - k, 0.0, 1.0) : 0.0;
-        const float below = blurred[k](y, x), above = blurred[std::min(k + 1, levels - 1)](y, x);
-        out[x] = static_cast<float>((1 - w) * below + w * above);
+        const double t = (sigma(y, x) - lo) / step;
+        const int k = std::clamp(static_cast<int>(t), 0, std::max(0, steps - 1));
+        interval(y, x) = k;
+        weight(y, x) = static_cast<float>(steps > 0 ? std::clamp(t - k, 0.0, 1.0) : 0.0);
       }
+    cv::Mat1f below = GaussianBlurOf(original, write, lo), above = below;
+    for (int k = 0; k < std::max(1, steps); ++k) {
+      if (steps > 0) above = GaussianBlurOf(original, write, lo + (k + 1) * step);
+      for (int y = 0; y < write.height; ++y) {
+        float* out = image.ptr<float>(write.y + y) + write.x;
+        for (int x = 0; x < write.width; ++x)
+          if (interval(y, x) == k) out[x] = (1 - weight(y, x)) * below(y, x) + weight(y, x) * above(y, x);
+      }
+      below = above;
     }
   }
 }

@@ -32,7 +32,8 @@ using SigmaMap = std::function<cv::Mat1f(const cv::Rect&)>;
 // is blurred at sigma levels at most 0.05 px apart spanning the map's range there, and
 // each pixel blends the two levels around its sigma linearly (exact at a level; between
 // two levels s1, s2 the blend's second moment is off by at most (s2 - s1)^2 / 4 =
-// 0.0006 px^2). The map must vary slowly (over many kernel widths).
+// 0.0006 px^2); two levels are in memory at a time. The map must vary slowly (over many
+// kernel widths).
 void BlurRegionsVarying(cv::Mat1f& image, const SigmaMap& sigma_px, const std::vector<cv::Rect>& regions);
 
 // Adds Gaussian noise (deterministic for `seed`, independent of the number of

@@ -37,8 +37,7 @@ TEST(ImageFormation, VaryingBlurGivesEachRowTheBlurOfItsOwnSigma) {
     EXPECT_LT(cv::norm(varying.row(y), blurred, cv::NORM_INF), 0.2) << "row " << y;  // of a 180-grey step
   }
   // ... and the rows differ: the edge is wider below.
-  EXPECT_GT(varying(90, 31) - varying(90, 30), 0.0f);
-  EXPECT_LT(varying(90, 31), varying(10, 31));
+  EXPECT_LT(varying(90, 31), varying(10, 31) - 1.0f);
 }
 
 }  // namespace

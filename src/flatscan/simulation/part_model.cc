@@ -95,26 +95,64 @@ Eigen::Vector2d PartGeometry::SheetCoordinates(const Eigen::Vector3d& x, double*
   return q;
 }
 
+namespace {
+
+// The arc of burr b that stands out of the outline, counter-clockwise about its centre
+// (the outline's own direction), points at most `spacing` apart.
+std::vector<Eigen::Vector2d> BurrArc(const PartGeometry& g, const Burr& b, double spacing) {
+  const int n = std::max(16, static_cast<int>(std::ceil(2 * M_PI * b.size_mm / spacing)));
+  std::vector<bool> on(n);
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    on[i] = std::abs(g.OuterSdf(b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a)))) < 1e-9;
+  }
+  int start = 0;  // the first point on the outline after one that is not
+  while (start < n && !(on[start] && !on[(start + n - 1) % n])) ++start;
+  std::vector<Eigen::Vector2d> arc;
+  for (int k = 0; k < n && start < n; ++k) {
+    const int i = (start + k) % n;
+    if (!on[i]) break;
+    const double a = 2 * M_PI * i / n;
+    arc.push_back(b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a)));
+  }
+  return arc;
+}
+
+}  // namespace
+
 std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) const {
-  std::vector<Eigen::Vector2d> out = SampleOutlineWithoutBurrs(spacing);
+  const std::vector<Eigen::Vector2d> plain = SampleOutlineWithoutBurrs(spacing);
   bool any = false;
   for (const Burr& b : burrs) any = any || !b.under_rim;
-  if (!any) return out;
-  // The outline points a burr covers are inside the part now; the burr's own arc, at
-  // most a quarter of its size apart, takes their place.
-  std::vector<Eigen::Vector2d> kept;
-  for (const Eigen::Vector2d& p : out)
-    if (OuterSdf(p) > -1e-9) kept.push_back(p);
-  for (const Burr& b : burrs) {
-    if (b.under_rim) continue;
-    const int n = std::max(16, static_cast<int>(std::ceil(2 * M_PI * b.size_mm / std::min(spacing, b.size_mm / 4))));
-    for (int i = 0; i < n; ++i) {
-      const double a = 2 * M_PI * i / n;
-      const Eigen::Vector2d p = b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a));
-      if (std::abs(OuterSdf(p)) < 1e-9) kept.push_back(p);
+  if (!any) return plain;
+  // The outline points a burr covers are inside the part now; its arc (points at most
+  // half its size apart) takes their place, in the outline's order.
+  std::vector<Eigen::Vector2d> out;
+  std::vector<bool> placed(burrs.size(), false);
+  for (const Eigen::Vector2d& p : plain) {
+    if (OuterSdf(p) > -1e-9) {
+      out.push_back(p);
+      continue;
+    }
+    for (size_t k = 0; k < burrs.size(); ++k) {
+      const Burr& b = burrs[k];
+      if (b.under_rim || placed[k] || CircleSdf(p, b.centre, b.size_mm) >= 0) continue;
+      const std::vector<Eigen::Vector2d> arc = BurrArc(*this, b, std::min(spacing, b.size_mm / 2));
+      out.insert(out.end(), arc.begin(), arc.end());
+      placed[k] = true;
     }
   }
-  return kept;
+  // A burr narrower than the spacing may fall between two outline points: its arc goes
+  // after the nearest one.
+  for (size_t k = 0; k < burrs.size(); ++k) {
+    if (burrs[k].under_rim || placed[k] || out.empty()) continue;
+    size_t nearest = 0;
+    for (size_t i = 1; i < out.size(); ++i)
+      if ((out[i] - burrs[k].centre).squaredNorm() < (out[nearest] - burrs[k].centre).squaredNorm()) nearest = i;
+    const std::vector<Eigen::Vector2d> arc = BurrArc(*this, burrs[k], std::min(spacing, burrs[k].size_mm / 2));
+    out.insert(out.begin() + static_cast<std::ptrdiff_t>(nearest) + 1, arc.begin(), arc.end());
+  }
+  return out;
 }
 
 std::vector<Eigen::Vector2d> PartGeometry::SampleOutlineWithoutBurrs(double spacing) const {
@@ -381,7 +419,8 @@ double PartOccluder::RaySignedDistance(const Ray& ray) const {
 std::vector<Eigen::Vector3d> PartOccluder::BoundingPoints() const {
   const PartGeometry& g = geometry_;
   double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo, reach = 0;
-  for (const Burr& b : g.burrs) reach = std::max(reach, b.size_mm);
+  double burr_reach = 0;  // a burr's arc stands this far out, and then leans like the rest
+  for (const Burr& b : g.burrs) burr_reach = std::max(burr_reach, b.size_mm);
   for (const Eigen::Vector2d& p : g.SampleOuterOutline(0.5)) {
     const Eigen::Vector3d rim = g.RimPoint(p), top = g.SheetPoint(p, g.thickness);
     z_lo = std::min(z_lo, rim.z());
@@ -393,7 +432,8 @@ std::vector<Eigen::Vector3d> PartOccluder::BoundingPoints() const {
   for (double z : {z_lo, z_hi})
     for (double sx : {-1.0, 1.0})
       for (double sy : {-1.0, 1.0})
-        out.push_back(support_from_part_ * Eigen::Vector3d(sx * (g.half_width + reach), sy * (g.half_height + reach), z));
+        out.push_back(support_from_part_ * Eigen::Vector3d(sx * (g.half_width + reach + burr_reach),
+                                                           sy * (g.half_height + reach + burr_reach), z));
   return out;
 }
 

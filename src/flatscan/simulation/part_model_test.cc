@@ -141,7 +141,17 @@ TEST(PartModel, BurrsStandOutOfTheOutlineOrUnderTheRim) {
     on_burr += p.y() > 6.0 + 1e-9;
   }
   EXPECT_NEAR(top, 6.04, 1e-3);
-  EXPECT_GE(on_burr, 7);  // the arc a quarter of the burr's size apart
+  EXPECT_GE(on_burr, 5);  // the half arc, half the burr's size apart
+  // ... in the outline's order: consecutive points at most the spacing apart.
+  const std::vector<Eigen::Vector2d> outline = g.SampleOuterOutline(0.1);
+  for (size_t i = 0; i < outline.size(); ++i)
+    EXPECT_LT((outline[(i + 1) % outline.size()] - outline[i]).norm(), 0.1 + 1e-9) << i;
+  // A burr between two samples (spacing 0.5 mm: x = 2.5 and 2.0) is still on the outline.
+  PartGeometry between = g;
+  between.burrs[0].centre.x() = 2.25;
+  int far_out = 0;
+  for (const Eigen::Vector2d& p : between.SampleOuterOutline(0.5)) far_out += p.y() > 6.0 + 1e-9;
+  EXPECT_GE(far_out, 5);
   EXPECT_NEAR(RestAndPlacePart(g, 0.0, {0, 0}).flatness_mm, 0.0, 1e-9);  // flat: the arc is at rim level
 
   g.burrs.push_back({Eigen::Vector2d(8.0, 0.0), 0.05, true});

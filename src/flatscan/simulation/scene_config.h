@@ -92,7 +92,7 @@ struct ImageEffectsSpec {
   Range motion_um = {0.0, 0.0};
   // Depth of field: the lenses at aperture f/N (N drawn from f_number; 0: no defocus),
   // each focused focus_error_mm (drawn per camera) beyond the support plane's depth at
-  // its image centre. The blur then varies across the part with the plane's depth
+  // its principal point (the image centre). The blur then varies across the part with the plane's depth
   // (simulation/image_defects.h, DefocusSigma).
   Range f_number = {0.0, 0.0};
   Range focus_error_mm = {0.0, 0.0};
@@ -138,7 +138,9 @@ struct PartSpec {
   Range twist_mm = {-0.15, 0.15};     // corner height of the x*y term
   double random_warp_mm = 0.02;       // amplitude of each random 2nd/3rd-order term
   // If hi > 0: the warp drawn above is scaled so the part's true flatness_mm is uniform
-  // in [lo, hi] (a lot with a known spread around the tolerance).
+  // in [lo, hi] (a lot with a known spread around the tolerance). Burrs (below) are
+  // added afterwards: one under the rim may lift the part above its drawn flatness (the
+  // truth follows it).
   Range flatness_mm = {0.0, 0.0};
   // Burrs left by the cutting (simulation/part_model.h, Burr): their count, how far each
   // stands out of the outline (or below the rim), and the share under the rim.
