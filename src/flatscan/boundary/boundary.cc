@@ -272,10 +272,6 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
     chain.clear();
     const Pixel* pixels = &pixel_chains.pixels[pixel_chains.begin[c]];
     const int count = pixel_chains.length(c);
-    auto add = [&](const ChainPoint& point) {
-      if (!chain.empty() && (chain.back().p - point.p).squaredNorm() < 0.25 * 0.25) return;  // same crossing
-      chain.push_back(point);
-    };
     if (model) {  // the profiles of the whole chain at once (SIMD lanes)
       requests.clear();
       normals.clear();
@@ -314,13 +310,14 @@ BoundaryResult DetectBoundary(const cv::Mat& input, const BoundaryOptions& optio
         point.p = Eigen::Vector2d(q.u + crossings[i].position * q.axis.du, q.v + crossings[i].position * q.axis.dv);
         point.normal = normals[i];
         point.step = crossings[i].step;
-        add(point);
+        AppendChainPoint(chain, point);
       }
     } else {
       for (int i = 0; i < count; ++i) {
         ChainPoint point;
         ProfileCrossing profile;
-        if (MeasurePoint(image, pixels[i], options, window_sigma, blur_variance, &point, &profile)) add(point);
+        if (MeasurePoint(image, pixels[i], options, window_sigma, blur_variance, &point, &profile))
+          AppendChainPoint(chain, point);
       }
     }
     if (!chain.empty()) chains.push_back(chain);

@@ -9,7 +9,7 @@ namespace {
 
 constexpr int kHeadingSpan = 3;     // an end's direction: from the point this many back
 constexpr int kMaxTrimmed = 3;      // points of a spur trimmed at a join, at most
-constexpr double kSamePointPx = 0.25;  // as the chaining's own "same crossing"
+constexpr double kSamePointPx = 0.25;  // one crossing reached from two edge pixels
 constexpr double kMaxOverlapOffsetPx = 0.5;  // overlapping ends lie on one edge: this far apart across it
 
 // End e of chain e / 2: its front (e even) or its back (e odd).
@@ -58,11 +58,14 @@ Eigen::Vector2d StartDirection(const std::vector<ChainPoint>& chain) {
 // next's start along next's direction.
 void Append(std::vector<ChainPoint>& out, const std::vector<ChainPoint>& next) {
   if (!out.empty() && next.size() >= 2) TrimPast(out, next[0].p, StartDirection(next));
-  for (const ChainPoint& point : next)
-    if (out.empty() || (out.back().p - point.p).squaredNorm() >= kSamePointPx * kSamePointPx) out.push_back(point);
+  for (const ChainPoint& point : next) AppendChainPoint(out, point);
 }
 
 }  // namespace
+
+void AppendChainPoint(std::vector<ChainPoint>& chain, const ChainPoint& point) {
+  if (chain.empty() || (chain.back().p - point.p).squaredNorm() >= kSamePointPx * kSamePointPx) chain.push_back(point);
+}
 
 std::vector<LinkedChain> LinkChainEnds(std::vector<std::vector<ChainPoint>> chains, const ChainLinkOptions& options) {
   const int n = static_cast<int>(chains.size());

@@ -31,6 +31,11 @@ struct LinkedChain {
   bool ring = false;  // its last point joins its first (closed)
 };
 
+// Appends `point` to `chain` unless it is the chain's last point again (within 0.25 px:
+// one crossing reached from two edge pixels). The chaining and the joining both build
+// chains with it.
+void AppendChainPoint(std::vector<ChainPoint>& chain, const ChainPoint& point);
+
 // Joins the chains end to end, closest ends first, each end at most once; a chain is
 // reversed where needed. Points of the first piece that run past the start of the
 // second (a spur refined onto the edge) are trimmed. A path that comes back to its start

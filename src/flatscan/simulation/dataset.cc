@@ -28,10 +28,11 @@ constexpr double kImageMarginPx = 24.0;  // parts and boards stay this far from 
 cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, const std::vector<cv::Rect>& regions,
                       uint64_t noise_seed, const ImageDefects& defects = {}) {
   const Camera& cam = st.GetCamera(camera);
+  const int side = camera == RigSide::kLeft ? 0 : 1;  // the defects' per-camera index
   const double sigma0 = st.scene.optics.blur_sigma_px;
   if (defects.f_number > 0) {
-    const CameraSpec& lens = camera == RigSide::kLeft ? st.scene.left_camera : st.scene.right_camera;
-    const double focus_error = defects.focus_error_mm[camera == RigSide::kLeft ? 0 : 1];
+    const CameraSpec& lens = side == 0 ? st.scene.left_camera : st.scene.right_camera;
+    const double focus_error = defects.focus_error_mm[side];
     BlurRegionsVarying(radiance, [&](const cv::Rect& rect) {
       return DefocusSigma(cam, st.CamFromSupport(camera), lens, sigma0, defects.f_number, focus_error, rect);
     }, regions);
@@ -40,7 +41,7 @@ cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, co
   }
   const double vignetting = st.scene.lighting.vignetting;
   if (defects.Any())
-    cv::multiply(radiance, IlluminationImage(cam.width, cam.height, vignetting, defects, camera == RigSide::kLeft ? 0 : 1),
+    cv::multiply(radiance, IlluminationImage(cam.width, cam.height, vignetting, defects, side),
                  radiance);
   else
     cv::multiply(radiance, BacklightImage(cam.width, cam.height, 1.0, vignetting), radiance);

@@ -116,6 +116,11 @@ cv::Rect AddHalo(cv::Mat1f& radiance, const CoverageTile& part, double backlight
 
 namespace {
 
+// The ray (x, y, 1) through pixel (u, v) without the distortion.
+Eigen::Vector2d PinholeRay(const Camera& camera, double u, double v) {
+  return {(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy};
+}
+
 // Depth (mm, along the optical axis) of the support plane seen through pixel (u, v);
 // `guess` carries the previous pixel's undistorted ray to start Newton from. Where the
 // distortion model cannot be inverted the pinhole ray stands in (the depth varies
@@ -123,8 +128,7 @@ namespace {
 double SupportPlaneDepth(const Camera& camera, const Eigen::Vector3d& normal_cam, double offset, double u, double v,
                          Eigen::Vector2d& guess) {
   const Eigen::Vector2d xy = camera.PixelToNormalized({u, v}, guess);
-  guess = std::isfinite(xy.x()) && std::isfinite(xy.y()) ? xy
-                                                         : Eigen::Vector2d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
+  guess = std::isfinite(xy.x()) && std::isfinite(xy.y()) ? xy : PinholeRay(camera, u, v);
   return offset / normal_cam.dot(Eigen::Vector3d(guess.x(), guess.y(), 1.0));
 }
 
@@ -144,7 +148,7 @@ cv::Mat1f DefocusSigma(const Camera& camera, const Rigid3d& cam_from_support, co
                     "length of {} mm (expected a focus error that keeps the focus on the far side of the lens)",
                     focus_error_mm, z_focus, f);
   for (int y = 0; y < rect.height; ++y) {
-    Eigen::Vector2d guess((rect.x - camera.cx) / camera.fx, (rect.y + y - camera.cy) / camera.fy);  // pinhole
+    Eigen::Vector2d guess = PinholeRay(camera, rect.x, rect.y + y);
     float* row = sigma.ptr<float>(y);
     for (int x = 0; x < rect.width; ++x) {
       const double z = SupportPlaneDepth(camera, normal, offset, rect.x + x, rect.y + y, guess);

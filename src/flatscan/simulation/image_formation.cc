@@ -61,28 +61,6 @@ void BlendCoverage(cv::Mat1f& image, const CoverageTile& tile, double grey) {
   }
 }
 
-void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>& regions) {
-  if (sigma_px <= 0) return;
-  const int ksize = 2 * static_cast<int>(std::ceil(4 * sigma_px)) + 1;
-  const cv::Rect whole(0, 0, image.cols, image.rows);
-  if (regions.empty()) {
-    cv::GaussianBlur(image, image, cv::Size(ksize, ksize), sigma_px, sigma_px, cv::BORDER_REPLICATE);
-    return;
-  }
-  // OpenCV filters a sub-matrix using its parent's pixels around it (no
-  // BORDER_ISOLATED), so each region grown by the kernel radius is blurred exactly;
-  // reading from a copy keeps overlapping regions from being blurred twice.
-  const cv::Mat1f original = regions.size() > 1 ? image.clone() : image;
-  const int h = ksize / 2;
-  for (const cv::Rect& r : regions) {
-    const cv::Rect write = cv::Rect(r.x - h, r.y - h, r.width + 2 * h, r.height + 2 * h) & whole;
-    if (write.empty()) continue;
-    cv::Mat1f blurred;
-    cv::GaussianBlur(original(write), blurred, cv::Size(ksize, ksize), sigma_px, sigma_px, cv::BORDER_REPLICATE);
-    blurred.copyTo(image(write));
-  }
-}
-
 namespace {
 
 constexpr double kMaxSigmaLevelStepPx = 0.05;
@@ -100,15 +78,40 @@ cv::Mat1f GaussianBlurOf(const cv::Mat1f& source, const cv::Rect& rect, double s
 
 }  // namespace
 
+void BlurRegions(cv::Mat1f& image, double sigma_px, const std::vector<cv::Rect>& regions) {
+  if (sigma_px <= 0) return;
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  if (regions.empty()) {
+    GaussianBlurOf(image, whole, sigma_px).copyTo(image);
+    return;
+  }
+  // OpenCV filters a sub-matrix using its parent's pixels around it (no
+  // BORDER_ISOLATED), so each region grown by the kernel radius is blurred exactly;
+  // reading from a copy keeps overlapping regions from being blurred twice.
+  const cv::Mat1f original = regions.size() > 1 ? image.clone() : image;
+  const int h = static_cast<int>(std::ceil(4 * sigma_px));  // the kernel's radius
+  for (const cv::Rect& r : regions) {
+    const cv::Rect write = Grow(r, h) & whole;
+    if (!write.empty()) GaussianBlurOf(original, write, sigma_px).copyTo(image(write));
+  }
+}
+
 void BlurRegionsVarying(cv::Mat1f& image, const SigmaMap& sigma_px, const std::vector<cv::Rect>& regions) {
   const cv::Rect whole(0, 0, image.cols, image.rows);
   const cv::Mat1f original = image.clone();  // overlapping regions are not blurred twice
   for (const cv::Rect& region : regions.empty() ? std::vector<cv::Rect>{whole} : regions) {
-    if ((region & whole).empty()) continue;
-    double lo = 0, hi = 0;
-    cv::minMaxLoc(sigma_px(region & whole), &lo, &hi);
+    const cv::Rect inside = region & whole;
+    if (inside.empty()) continue;
+    // The kernel's reach from the map at the region's corners (where a map that varies
+    // monotonically across it is largest; 2 px spare), so that the map, the costly part,
+    // is computed once, over the grown region.
+    double hi = 0;
+    for (const cv::Point corner : {inside.tl(), inside.br() - cv::Point(1, 1), cv::Point(inside.x, inside.br().y - 1),
+                                   cv::Point(inside.br().x - 1, inside.y)})
+      hi = std::max(hi, static_cast<double>(sigma_px(cv::Rect(corner, cv::Size(1, 1)))(0, 0)));
     const cv::Rect write = Grow(region, static_cast<int>(std::ceil(4 * hi)) + 2) & whole;
     const cv::Mat1f sigma = sigma_px(write);
+    double lo = 0;
     cv::minMaxLoc(sigma, &lo, &hi);
     const int steps = hi - lo < 1e-9 ? 0 : static_cast<int>(std::ceil((hi - lo) / kMaxSigmaLevelStepPx));
     const double step = steps > 0 ? (hi - lo) / steps : 1.0;

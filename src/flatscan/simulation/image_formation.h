@@ -33,7 +33,8 @@ using SigmaMap = std::function<cv::Mat1f(const cv::Rect&)>;
 // each pixel blends the two levels around its sigma linearly (exact at a level; between
 // two levels s1, s2 the blend's second moment is off by at most (s2 - s1)^2 / 4 =
 // 0.0006 px^2); two levels are in memory at a time. The map must vary slowly (over many
-// kernel widths).
+// kernel widths), and over a region be largest at one of its corners (as a map varying
+// monotonically across it is): the region is grown by the kernel's reach there.
 void BlurRegionsVarying(cv::Mat1f& image, const SigmaMap& sigma_px, const std::vector<cv::Rect>& regions);
 
 // Adds Gaussian noise (deterministic for `seed`, independent of the number of

@@ -98,23 +98,20 @@ Eigen::Vector2d PartGeometry::SheetCoordinates(const Eigen::Vector3d& x, double*
 namespace {
 
 // The arc of burr b that stands out of the outline, counter-clockwise about its centre
-// (the outline's own direction), points at most `spacing` apart.
+// (the outline's own direction), points at most `spacing` and half the burr's size apart.
 std::vector<Eigen::Vector2d> BurrArc(const PartGeometry& g, const Burr& b, double spacing) {
-  const int n = std::max(16, static_cast<int>(std::ceil(2 * M_PI * b.size_mm / spacing)));
+  const int n = std::max(16, static_cast<int>(std::ceil(2 * M_PI * b.size_mm / std::min(spacing, b.size_mm / 2))));
+  std::vector<Eigen::Vector2d> circle(n);
   std::vector<bool> on(n);
   for (int i = 0; i < n; ++i) {
     const double a = 2 * M_PI * i / n;
-    on[i] = std::abs(g.OuterSdf(b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a)))) < 1e-9;
+    circle[i] = b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a));
+    on[i] = std::abs(g.OuterSdf(circle[i])) < 1e-9;
   }
   int start = 0;  // the first point on the outline after one that is not
   while (start < n && !(on[start] && !on[(start + n - 1) % n])) ++start;
   std::vector<Eigen::Vector2d> arc;
-  for (int k = 0; k < n && start < n; ++k) {
-    const int i = (start + k) % n;
-    if (!on[i]) break;
-    const double a = 2 * M_PI * i / n;
-    arc.push_back(b.centre + b.size_mm * Eigen::Vector2d(std::cos(a), std::sin(a)));
-  }
+  for (int k = 0; k < n && start < n && on[(start + k) % n]; ++k) arc.push_back(circle[(start + k) % n]);
   return arc;
 }
 
@@ -137,7 +134,7 @@ std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) co
     for (size_t k = 0; k < burrs.size(); ++k) {
       const Burr& b = burrs[k];
       if (b.under_rim || placed[k] || CircleSdf(p, b.centre, b.size_mm) >= 0) continue;
-      const std::vector<Eigen::Vector2d> arc = BurrArc(*this, b, std::min(spacing, b.size_mm / 2));
+      const std::vector<Eigen::Vector2d> arc = BurrArc(*this, b, spacing);
       out.insert(out.end(), arc.begin(), arc.end());
       placed[k] = true;
     }
@@ -149,7 +146,7 @@ std::vector<Eigen::Vector2d> PartGeometry::SampleOuterOutline(double spacing) co
     size_t nearest = 0;
     for (size_t i = 1; i < out.size(); ++i)
       if ((out[i] - burrs[k].centre).squaredNorm() < (out[nearest] - burrs[k].centre).squaredNorm()) nearest = i;
-    const std::vector<Eigen::Vector2d> arc = BurrArc(*this, burrs[k], std::min(spacing, burrs[k].size_mm / 2));
+    const std::vector<Eigen::Vector2d> arc = BurrArc(*this, burrs[k], spacing);
     out.insert(out.begin() + static_cast<std::ptrdiff_t>(nearest) + 1, arc.begin(), arc.end());
   }
   return out;
