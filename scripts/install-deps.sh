@@ -8,6 +8,9 @@ PACKAGES=(
   libeigen3-dev libnanoflann-dev libtbb-dev
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   zlib1g-dev                                        # CRC-32 of PNG chunks (io/image_io.cc)
+  libssl-dev                                        # SHA-256 of files and images (util/sha256.cc: libcrypto)
+  libsqlite3-dev libyaml-cpp-dev                    # the station's results store and recipe files (station/)
+  libspng-dev                                       # PNG decoding, compared with OpenCV's (bench/)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)
 )

@@ -29,6 +29,9 @@ namespace flatscan {
 
 namespace {
 
+// Set by a resident command: the first signal sets it instead of ending the process.
+std::atomic<std::atomic<bool>*> graceful_stop{nullptr};
+
 // SIGINT and SIGTERM (Ctrl-C, a stopping service) are taken by one thread, outside any
 // signal handler, so that it may remove the partial outputs (staging folders,
 // temporaries) before the process ends: an interrupted run leaves nothing behind, and its
@@ -43,6 +46,12 @@ void RemovePartialOutputsOnInterrupt() {
   std::thread([signals] {
     int signal = 0;
     if (sigwait(&signals, &signal) != 0) return;
+    if (std::atomic<bool>* stop = graceful_stop.exchange(nullptr)) {
+      const char stopping[] = "flatscan: stopping (finishing what is in flight; a second signal ends it now)\n";
+      [[maybe_unused]] const ssize_t n = ::write(STDERR_FILENO, stopping, sizeof(stopping) - 1);
+      stop->store(true);
+      if (sigwait(&signals, &signal) != 0) return;
+    }
     const char message[] = "flatscan: interrupted; partial outputs removed\n";
     RemoveRegisteredForCleanup();
     [[maybe_unused]] const ssize_t written = ::write(STDERR_FILENO, message, sizeof(message) - 1);
@@ -70,6 +79,8 @@ std::string UnknownCommandMessage(int argc, char** argv, const CLI::App& app) {
 }
 
 }  // namespace
+
+void StopGracefullyOnSignal(std::atomic<bool>* stop) { graceful_stop = stop; }
 
 int RunCli(int argc, char** argv) {
   RemovePartialOutputsOnInterrupt();

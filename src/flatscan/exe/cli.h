@@ -2,6 +2,12 @@
 // The flatscan command-line tool: subcommands on top of the library.
 // Exit codes (docs/conventions.md): 0 measured and pass (or success), 1 measured and
 // fail, 2 could not measure / bad input.
+#include <atomic>
+
 namespace flatscan {
 int RunCli(int argc, char** argv);
+// A resident command (the station) that stops gracefully: the first SIGINT or SIGTERM
+// sets `*stop` (the command finishes what is in flight and exits 0) instead of ending
+// the process; a second one ends it (exit 2). nullptr restores the default.
+void StopGracefullyOnSignal(std::atomic<bool>* stop);
 }

@@ -45,6 +45,9 @@ std::unique_ptr<Command> MakeEvaluateEdgesCommand();
 std::unique_ptr<Command> MakeCalibrateRigCommand();
 std::unique_ptr<Command> MakeImportRigCommand();
 std::unique_ptr<Command> MakeCalibratePlaneCommand();
+std::unique_ptr<Command> MakeRecipeCommand();
+std::unique_ptr<Command> MakeStationCommand();
+std::unique_ptr<Command> MakeResultsCommand();
 
 inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   std::vector<std::unique_ptr<Command>> out;
@@ -57,6 +60,9 @@ inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   out.push_back(MakeCalibrateRigCommand());
   out.push_back(MakeImportRigCommand());
   out.push_back(MakeCalibratePlaneCommand());
+  out.push_back(MakeRecipeCommand());
+  out.push_back(MakeStationCommand());
+  out.push_back(MakeResultsCommand());
   return out;
 }
 

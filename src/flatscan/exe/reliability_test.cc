@@ -165,6 +165,18 @@ const std::vector<BadInput>& Cases() {
       {"messages", "rig file with a 3x2 camera matrix", "inspect --rig $D/bad/rig_m1_3x2.yml --plane $PLANE "
                                                        "--thickness $T --tolerance 1 --left $LEFT --right $RIGHT"},
       {"messages", "scene file with an unknown key", "simulate --scene $D/bad/scene_unknown.yml -o $D/sim"},
+      // The station's inputs (docs/station.md).
+      {"station", "recipe without tolerance_mm", "recipe check $D/bad/recipe_no_tolerance.yml"},
+      {"station", "recipe with a misspelt key", "recipe check $D/bad/recipe_misspelt.yml"},
+      {"station", "recipe whose plane was calibrated with another rig", "recipe check $D/bad/recipe_foreign.yml"},
+      {"station", "recipe whose pinned rig hash does not match", "recipe check $D/bad/recipe_pinned.yml"},
+      {"station", "station with a bad recipe: no store is created",
+       "station --recipe $D/bad/recipe_no_tolerance.yml --source pairs:$D/bad/escape.csv --store $D/s.db --until-idle 0"},
+      {"station", "station with an unknown source",
+       "station --recipe $D/bad/recipe_good.yml --source camera:0 --store $D/s.db --until-idle 0"},
+      {"station", "results of a store that does not exist", "results --store $D/none.db"},
+      {"station", "results of a file that is not a store", "results --store $D/a_file"},
+      {"station", "results --from in local time", "results --store $D/a_file --from 2026-12-04T08:00+01:00"},
       // Found by the fuzzers (fuzz/).
       {"fuzz", "rig file of nested brackets (kept OpenCV's parser busy for minutes)",
        "inspect --rig $D/bad/rig_nested.yml --plane $PLANE --thickness $T --tolerance 1 --left $LEFT --right $RIGHT"},
@@ -211,6 +223,7 @@ class Reliability : public ::testing::Test {
     WriteBadRigs(d);
     WriteBadImages(d);
     WriteBadTables(d);
+    WriteBadRecipes(d);
     fs::create_directories(d / "not_ours");
     std::ofstream(d / "not_ours/thesis.txt") << "four years of work\n";
     std::ofstream(d / "a_file") << "x";
@@ -291,6 +304,18 @@ class Reliability : public ::testing::Test {
     cv::imwrite((d / "bad/backlight.png").string(), cv::Mat1b(1944, 2592, uchar{230}));
     std::ofstream(d / "bad/text.png") << "these are not the pixels you are looking for\n";
     std::ofstream(d / "bad/empty.png");
+  }
+
+  static void WriteBadRecipes(const fs::path& d) {
+    const std::string files = "rig: ../data/rig.yml\nplane: ../data/plane_true.yml\n";
+    std::ofstream(d / "bad/recipe_good.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.1\n" << files;
+    std::ofstream(d / "bad/recipe_no_tolerance.yml") << "name: shield\nthickness_mm: 0.2\n" << files;
+    std::ofstream(d / "bad/recipe_misspelt.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.1\n"
+                                                    "guardband_mm: 0.01\n" << files;
+    std::ofstream(d / "bad/recipe_foreign.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.1\n"
+                                                   "rig: ../data/rig.yml\nplane: plane_foreign.yml\n";
+    std::ofstream(d / "bad/recipe_pinned.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.1\nrig_sha256: "
+                                               << std::string(64, '0') << "\n" << files;
   }
 
   static void WriteBadTables(const fs::path& d) {

@@ -91,19 +91,6 @@ std::vector<Record> ParseCsv(std::string_view text, const std::string& name) {
   return records;
 }
 
-// "a,b" -> "\"a,b\"" where RFC 4180 needs quotes (or spaces at an end would be trimmed).
-std::string CsvField(const std::string& s) {
-  const bool needs = s.find_first_of(",\"\r\n") != std::string::npos ||
-                     (!s.empty() && (s.front() == ' ' || s.back() == ' ' || s.front() == '\t' || s.back() == '\t'));
-  if (!needs) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out.push_back('"');
-    out.push_back(c);
-  }
-  return out + "\"";
-}
-
 constexpr double kMaxThicknessMm = 5.0;  // the bound of inspect --thickness
 
 double ParseThickness(const std::string& text, const std::string& name, int line) {
@@ -117,6 +104,18 @@ double ParseThickness(const std::string& text, const std::string& name, int line
 }
 
 }  // namespace
+
+std::string CsvField(const std::string& s) {
+  const bool needs = s.find_first_of(",\"\r\n") != std::string::npos ||
+                     (!s.empty() && (s.front() == ' ' || s.back() == ' ' || s.front() == '\t' || s.back() == '\t'));
+  if (!needs) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out.push_back('"');
+    out.push_back(c);
+  }
+  return out + "\"";
+}
 
 std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
   const std::string name = path.string();

@@ -1,9 +1,14 @@
 #include "flatscan/util/test_util.h"
 
+#include <signal.h>
+#include <fcntl.h>
+#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <fstream>
+#include <thread>
 #include <sstream>
 
 #include "flatscan/util/error.h"
@@ -56,6 +61,61 @@ CommandResult RunFlatscan(const std::string& args, int timeout_s) {
   std::filesystem::remove(out);
   std::filesystem::remove(err);
   return r;
+}
+
+namespace {
+std::string Binary() {
+#ifdef FLATSCAN_BINARY
+  return FLATSCAN_BINARY;
+#else
+  return "build/flatscan";
+#endif
+}
+}  // namespace
+
+BackgroundFlatscan::BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log) {
+  std::vector<std::string> argv_text = {Binary()};
+  argv_text.insert(argv_text.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : argv_text) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, argv_text[0].c_str(), &actions, nullptr, argv.data(), environ) == 0) pid_ = pid;
+  posix_spawn_file_actions_destroy(&actions);
+}
+
+BackgroundFlatscan::~BackgroundFlatscan() {
+  if (pid_ <= 0) return;
+  ::kill(pid_, SIGKILL);
+  int status = 0;
+  ::waitpid(pid_, &status, 0);
+}
+
+void BackgroundFlatscan::Signal(int signal) const {
+  if (pid_ > 0) ::kill(pid_, signal);
+}
+
+int BackgroundFlatscan::Wait(double timeout_s) {
+  if (pid_ <= 0) return -1;
+  int status = 0;
+  const bool ended = WaitFor([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout_s);
+  if (!ended) return -1;  // the destructor kills it
+  pid_ = -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+bool WaitFor(const std::function<bool()>& condition, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
 }
 
 }  // namespace flatscan::testing

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace flatscan::testing {
 
@@ -27,6 +28,28 @@ struct CommandResult {
 // process is killed after that many seconds (exit code 137), so that a hang fails the
 // test instead of stalling it.
 CommandResult RunFlatscan(const std::string& args, int timeout_s = 0);
+
+// A flatscan process in the background (a station): started with `args` (one per
+// element), standard output and error to `log`. Destroying it while it runs kills it
+// (SIGKILL) and reaps it, so that a failed test leaves no process behind.
+class BackgroundFlatscan {
+ public:
+  BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log);
+  ~BackgroundFlatscan();
+  BackgroundFlatscan(const BackgroundFlatscan&) = delete;
+  BackgroundFlatscan& operator=(const BackgroundFlatscan&) = delete;
+  bool started() const { return pid_ > 0; }
+  void Signal(int signal) const;
+  // Waits at most `timeout_s` for the process to end: its exit code, 128 + the signal
+  // that ended it, or -1 when it still ran at the deadline (it is then killed).
+  int Wait(double timeout_s);
+
+ private:
+  int pid_ = -1;
+};
+
+// Polls `condition` every 20 ms until it holds or `timeout_s` passes; whether it held.
+bool WaitFor(const std::function<bool()>& condition, double timeout_s);
 
 // The message of the InputError that `f` throws, or "(no error)".
 std::string InputErrorOf(const std::function<void()>& f);

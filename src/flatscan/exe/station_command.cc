@@ -1,0 +1,125 @@
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <spdlog/pattern_formatter.h>
+#include <spdlog/sinks/rotating_file_sink.h>
+#include <spdlog/spdlog.h>
+
+#include "flatscan/exe/cli.h"
+#include "flatscan/exe/commands.h"
+#include "flatscan/exe/number_checks.h"
+#include "flatscan/station/pair_source.h"
+#include "flatscan/station/recipe.h"
+#include "flatscan/store/results_store.h"
+#include "flatscan/station/inspection_station.h"
+#include "flatscan/station/status_file.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// A rotating log: 3 files of 5 MB beside the live one (about a month of a busy line's
+// info lines at 100 bytes per record and 20 000 records a day).
+constexpr size_t kLogFileBytes = 5 * 1024 * 1024;
+constexpr size_t kLogFiles = 3;
+
+std::string HostStationId() {
+  char host[256] = {};
+  if (gethostname(host, sizeof(host) - 1) != 0) return "station";
+  return StationIdFromHostName(host);
+}
+
+void CheckStationId(const std::string& id) {
+  if (id.empty() || id.size() > 64 ||
+      id.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-") != std::string::npos)
+    ThrowInputError("--station-id '{}': expected 1-64 characters from [A-Za-z0-9_-]", id);
+}
+
+// `store` with its extension replaced: results.db -> results.log.
+std::string Beside(const std::string& store, const char* extension) {
+  return std::filesystem::path(store).replace_extension(extension).string();
+}
+
+class StationCommand : public Command {
+ public:
+  void Register(CLI::App& app) override {
+    sub_ = app.add_subcommand("station",
+                              "Run an inspection station: measure every pair a source gives with the active recipe, "
+                              "commit a record per pair to the results store, then publish it. Runs until SIGINT or "
+                              "SIGTERM (finishes the pairs in flight, exit 0) or, with --until-idle, until idle.");
+    sub_->footer("Example: flatscan station --recipe shield.yml --source pairs:pairs.csv --store results.db "
+                 "--until-idle 5\nThen:    flatscan results --store results.db --csv\nSee docs/station.md.");
+    sub_->add_option("--recipe", recipes_, "recipe file (YAML; repeat for several: the first is active)")->required();
+    sub_->add_option("--source", source_, "where pairs come from: pairs:FILE.csv (replay a pairs file)")->required();
+    sub_->add_option("--store", store_, "results store (SQLite file; created when missing)")->required();
+    sub_->add_option("--station-id", station_id_, "the station's name in its records (default: the host name)");
+    sub_->add_option("--until-idle", until_idle_s_,
+                     "exit 0 once this many seconds passed since the last record with nothing in flight")
+        ->check(RealIn(0, 1e6));
+    sub_->add_option("--log", log_, "rotating log file (default: the store's name with .log)");
+    sub_->add_option("--status", status_, "status file (JSON, rewritten after every record; default: the store's "
+                                          "name with .status.json)");
+  }
+
+  int Run() override {
+    if (station_id_.empty()) station_id_ = HostStationId();
+    CheckStationId(station_id_);
+    std::vector<LoadedRecipe> recipes;
+    for (const std::string& r : recipes_) recipes.push_back(LoadRecipe(r));
+    const std::unique_ptr<PairSource> source = MakePairSource(source_);
+    LogToFile(log_.empty() ? Beside(store_, ".log") : log_);
+    std::unique_ptr<ResultsStore> store;
+    try {
+      store = OpenSqliteStore(store_, true);
+    } catch (const StoreError& e) {
+      ThrowInputError("--store: {}", e.what());
+    }
+    StationOptions options;
+    options.station_id = station_id_;
+    options.software_version = FLATSCAN_VERSION;
+    options.until_idle_s = until_idle_s_;
+    StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,
+                      recipes.front().recipe.name);
+    InspectionStation station(std::move(recipes), *source, *store, options);
+    station.AddPublisher(&status);
+    std::atomic<bool> stop{false};
+    StopGracefullyOnSignal(&stop);
+    try {
+      station.Run(stop);
+    } catch (const StoreError& e) {
+      StopGracefullyOnSignal(nullptr);
+      spdlog::error("the station stops: it cannot record ({})", e.what());
+      return 2;
+    }
+    StopGracefullyOnSignal(nullptr);
+    return 0;
+  }
+
+ private:
+  static void LogToFile(const std::string& file) {
+    try {
+      auto sink = std::make_shared<spdlog::sinks::rotating_file_sink_mt>(file, kLogFileBytes, kLogFiles);
+      sink->set_formatter(
+          std::make_unique<spdlog::pattern_formatter>("%Y-%m-%dT%H:%M:%S.%eZ %l: %v", spdlog::pattern_time_type::utc));
+      spdlog::default_logger()->sinks().push_back(sink);
+    } catch (const spdlog::spdlog_ex& e) {
+      ThrowInputError("--log '{}': cannot write the log file ({})", file, e.what());
+    }
+  }
+
+  std::vector<std::string> recipes_;
+  std::string source_, store_, station_id_, log_, status_;
+  std::optional<double> until_idle_s_;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeStationCommand() { return std::make_unique<StationCommand>(); }
+
+}  // namespace flatscan

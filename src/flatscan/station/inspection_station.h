@@ -1,0 +1,86 @@
+#pragma once
+// The station: a resident loop that takes pairs from a source, measures them with the
+// active recipe, commits a record per pair to the results store and only then
+// publishes it (log, counts; the line outputs next).
+//
+//   source --(serial: next pair, active recipe)--> measure (parallel: hash, decode,
+//   inspect, judge) --(serial, in arrival order: skip a pair already recorded, commit,
+//   publish, tell the source)--> store
+//
+// At most `max_in_flight` pairs are between the two serial stages (a TBB pipeline), so
+// memory stays bounded however many pairs arrive. Every pair gets a record: a pair
+// that cannot be measured (unreadable, corrupt, half a pair, the wrong part) gets a
+// "not measured" record with the reason, and the station goes on. Only a store that
+// cannot be written stops it (StoreError): it can record nothing.
+#include <atomic>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "flatscan/station/pair_source.h"
+#include "flatscan/station/recipe.h"
+#include "flatscan/store/results_store.h"
+
+namespace flatscan {
+
+struct StationOptions {
+  std::string station_id = "station";
+  std::string software_version;
+  // Return once this many seconds have passed since the last commit with nothing in
+  // flight; nullopt: run until `stop` is set.
+  std::optional<double> until_idle_s;
+  int max_in_flight = 4;  // pairs being measured at once (2 cores: 2 measuring, 2 queued)
+};
+
+struct StationCounts {
+  int64_t committed = 0, pass = 0, fail = 0, not_measured = 0;
+  int64_t already_recorded = 0;  // pairs skipped: the store had them (a restart)
+};
+
+// Where a committed record goes next (the status file; MQTT, Modbus, the web page
+// next). Called in commit order, after the record is durable, from one thread.
+// An exception from a publisher is logged and does not stop the station: the record
+// is safe in the store, which is where a publisher catches up from.
+class RecordPublisher {
+ public:
+  virtual ~RecordPublisher() = default;
+  virtual void Publish(const StationRecord& record, const StationCounts& counts) = 0;
+  // The station stopped (exit or idle): a last status.
+  virtual void Stopped(const StationCounts& /*counts*/) {}
+};
+
+// The record a station makes of one pair (the parallel stage), without sequence and time.
+StationRecord MeasureSourcePair(const LoadedRecipe& recipe, const SourcePair& pair, const StationOptions& options);
+
+class InspectionStation {
+ public:
+  // `recipes`: at least one; the first is active.
+  InspectionStation(std::vector<LoadedRecipe> recipes, PairSource& source, ResultsStore& store, StationOptions options);
+
+  // Runs until `stop` is set (pairs in flight are finished and recorded) or, with
+  // until_idle_s, until idle. Throws StoreError when the store cannot be written (the
+  // pairs in flight are then not recorded, and their source files are left in place).
+  StationCounts Run(const std::atomic<bool>& stop);
+
+  // Publishers get each record once it is committed, in this order.
+  void AddPublisher(RecordPublisher* publisher) { publishers_.push_back(publisher); }
+
+  // Switches the recipe for the pairs taken from now on (line outputs, web page).
+  void SetActiveRecipe(size_t index);
+  size_t ActiveRecipe() const { return active_; }
+
+ private:
+  void Deliver(StationRecord& record, const SourcePair& pair);
+  void Publish(const StationRecord& record);
+
+  std::vector<LoadedRecipe> recipes_;
+  PairSource& source_;
+  ResultsStore& store_;
+  StationOptions options_;
+  std::vector<RecordPublisher*> publishers_;
+  std::atomic<size_t> active_{0};
+  StationCounts counts_;
+};
+
+}  // namespace flatscan

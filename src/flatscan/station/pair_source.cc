@@ -1,0 +1,50 @@
+#include "flatscan/station/pair_source.h"
+
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "flatscan/io/pairs_csv.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+class PairsFileSource : public PairSource {
+ public:
+  explicit PairsFileSource(const std::filesystem::path& csv) : name_("pairs:" + csv.string()), pairs_(ReadPairsCsv(csv)) {
+    for (const PairEntry& p : pairs_)
+      if (p.thickness_mm) {
+        spdlog::warn("{}: its thickness column is not used: a station measures with the recipe's thickness_mm",
+                     csv.string());
+        break;
+      }
+  }
+  std::optional<SourcePair> Next(std::chrono::milliseconds /*wait*/) override {
+    if (next_ == pairs_.size()) return std::nullopt;
+    const PairEntry& p = pairs_[next_++];
+    return SourcePair{p.id, p.left, p.right, std::nullopt};
+  }
+  bool Exhausted() const override { return next_ == pairs_.size(); }
+  std::string Name() const override { return name_; }
+
+ private:
+  std::string name_;
+  std::vector<PairEntry> pairs_;
+  size_t next_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<PairSource> MakePairsFileSource(const std::filesystem::path& csv) {
+  return std::make_unique<PairsFileSource>(csv);
+}
+
+std::unique_ptr<PairSource> MakePairSource(const std::string& spec) {
+  const auto colon = spec.find(':');
+  const std::string kind = spec.substr(0, colon), where = colon == std::string::npos ? "" : spec.substr(colon + 1);
+  if (kind == "pairs" && !where.empty()) return MakePairsFileSource(where);
+  ThrowInputError("--source '{}': expected pairs:FILE.csv (a pairs file to replay)", spec);
+}
+
+}  // namespace flatscan

@@ -1,0 +1,41 @@
+#pragma once
+// Where a station's pairs come from. One pipeline, several sources: a replay of a
+// pairs file (`pairs:FILE.csv`, io/pairs_csv.h), a watched folder (next), cameras
+// (next). A source hands out pairs; the station tells it when a pair's record is
+// committed, so that a source that moves or deletes files does so only then.
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace flatscan {
+
+struct SourcePair {
+  std::string source_id;                    // the pair's id in its source
+  std::filesystem::path left, right;        // image files
+  std::optional<std::string> not_measurable;  // why it cannot be measured (a half pair past its timeout)
+};
+
+class PairSource {
+ public:
+  virtual ~PairSource() = default;
+  // The next pair, waiting at most `wait` for one; nullopt when none came.
+  virtual std::optional<SourcePair> Next(std::chrono::milliseconds wait) = 0;
+  // True once the source will give no more pairs (a replay read to its end).
+  virtual bool Exhausted() const = 0;
+  // The pair's record is committed (or it was recorded before).
+  virtual void Done(const SourcePair& /*pair*/) {}
+  // What the source is, for logs: "pairs:list.csv".
+  virtual std::string Name() const = 0;
+};
+
+// `pairs:FILE.csv`: every pair the file lists, in order (paths relative to the file).
+// Throws InputError as ReadPairsCsv does.
+std::unique_ptr<PairSource> MakePairsFileSource(const std::filesystem::path& csv);
+
+// A source from its command-line form: "pairs:FILE.csv" (or "folder:DIR", once
+// there). Throws InputError naming the accepted forms otherwise.
+std::unique_ptr<PairSource> MakePairSource(const std::string& spec);
+
+}  // namespace flatscan
