@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include <benchmark/benchmark.h>
+#include <spng.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -72,17 +73,42 @@ void BM_InspectPaperPair(benchmark::State& state) {
 }
 BENCHMARK(BM_InspectPaperPair)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// libspng's decoder, for the comparison (8-bit grey PNGs).
+cv::Mat1b DecodeWithSpng(const std::vector<uchar>& png) {
+  spng_ctx* ctx = spng_ctx_new(0);
+  spng_ihdr ihdr{};
+  size_t size = 0;
+  spng_set_png_buffer(ctx, png.data(), png.size());
+  spng_get_ihdr(ctx, &ihdr);
+  cv::Mat1b image(int(ihdr.height), int(ihdr.width));
+  spng_decoded_image_size(ctx, SPNG_FMT_G8, &size);
+  const int rc = size == image.total() ? spng_decode_image(ctx, image.data, size, SPNG_FMT_G8, 0) : SPNG_EOVERFLOW;
+  spng_ctx_free(ctx);
+  if (rc != 0) std::abort();
+  return image;
+}
+
+// One pair of PNGs as the simulator writes them, decoded on one thread: argument 0 with
+// OpenCV's decoder (libpng), 1 with libspng, 2 with flatscan's (DecodeGreyPng:
+// libdeflate, what ReadGreyImage uses for 8-bit grey PNGs). Ratios printed at the end.
+double decode_ms[3] = {0, 0, 0};
 void BM_DecodePngPair(benchmark::State& state) {
   cv::setNumThreads(1);
   std::vector<uchar> l, r;
   cv::imencode(".png", Pair().left, l);
   cv::imencode(".png", Pair().right, r);
-  for (auto _ : state) {
-    benchmark::DoNotOptimize(cv::imdecode(l, cv::IMREAD_GRAYSCALE).data);
-    benchmark::DoNotOptimize(cv::imdecode(r, cv::IMREAD_GRAYSCALE).data);
-  }
+  const int64_t decoder = state.range(0);
+  state.SetLabel(decoder == 0 ? "OpenCV (libpng)" : decoder == 1 ? "libspng" : "flatscan (libdeflate)");
+  decode_ms[decoder] = MeanMs(state, [&] {
+    for (const std::vector<uchar>* png : {&l, &r}) {
+      const cv::Mat image = decoder == 0   ? cv::imdecode(*png, cv::IMREAD_GRAYSCALE)
+                            : decoder == 1 ? DecodeWithSpng(*png)
+                                           : DecodeGreyPng(*png, "bench");
+      benchmark::DoNotOptimize(image.data);
+    }
+  });
 }
-BENCHMARK(BM_DecodePngPair)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DecodePngPair)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Batch throughput on 2 threads from PNG files, the way `inspect --pairs` runs
 // (ParallelInOrder over the pairs, each read with ReadGreyImage and inspected on one
@@ -154,6 +180,11 @@ int main(int argc, char** argv) {
     std::printf("StereoSGBM 3-way on the rectified pair: %.1f ms; flatscan inspection: %.2f ms; ratio %.0fx (same pair, "
                 "same run, one thread)\n",
                 flatscan::sgbm_ms, flatscan::inspect_ms, flatscan::sgbm_ms / flatscan::inspect_ms);
+  if (flatscan::decode_ms[0] > 0 && flatscan::decode_ms[1] > 0 && flatscan::decode_ms[2] > 0)
+    std::printf("PNG pair decoding on one thread: OpenCV %.1f ms, libspng %.1f ms (%.2f of OpenCV's time), flatscan "
+                "%.1f ms (%.2f)\n",
+                flatscan::decode_ms[0], flatscan::decode_ms[1], flatscan::decode_ms[1] / flatscan::decode_ms[0],
+                flatscan::decode_ms[2], flatscan::decode_ms[2] / flatscan::decode_ms[0]);
   if (flatscan::batch_pairs_per_s[0] > 0 && flatscan::batch_pairs_per_s[1] > 0)
     std::printf("batch from PNG files on 2 threads: %.1f pairs/s (decoding alone: %.1f pairs/s); %.2f of the floor's "
                 "rate\n",

@@ -10,7 +10,8 @@ PACKAGES=(
   zlib1g-dev                                        # CRC-32 of PNG chunks (io/image_io.cc)
   libssl-dev                                        # SHA-256 of files and images (util/sha256.cc: libcrypto)
   libsqlite3-dev libyaml-cpp-dev                    # the station's results store and recipe files (station/)
-  libspng-dev                                       # PNG decoding, compared with OpenCV's (bench/)
+  libdeflate-dev                                    # inflating PNG image data (io/image_io.cc)
+  libspng-dev                                       # a PNG decoder compared with ours and OpenCV's (bench/inspect_bench)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)
 )

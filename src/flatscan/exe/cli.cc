@@ -29,8 +29,9 @@ namespace flatscan {
 
 namespace {
 
-// Set by a resident command: the first signal sets it instead of ending the process.
-std::atomic<std::atomic<bool>*> graceful_stop{nullptr};
+// A resident command asked for a graceful stop: the first signal sets graceful_stop.
+std::atomic<bool> graceful_mode{false};
+std::atomic<bool> graceful_stop{false};
 
 // SIGINT and SIGTERM (Ctrl-C, a stopping service) are taken by one thread, outside any
 // signal handler, so that it may remove the partial outputs (staging folders,
@@ -46,10 +47,10 @@ void RemovePartialOutputsOnInterrupt() {
   std::thread([signals] {
     int signal = 0;
     if (sigwait(&signals, &signal) != 0) return;
-    if (std::atomic<bool>* stop = graceful_stop.exchange(nullptr)) {
+    if (graceful_mode.exchange(false)) {
       const char stopping[] = "flatscan: stopping (finishing what is in flight; a second signal ends it now)\n";
       [[maybe_unused]] const ssize_t n = ::write(STDERR_FILENO, stopping, sizeof(stopping) - 1);
-      stop->store(true);
+      graceful_stop = true;
       if (sigwait(&signals, &signal) != 0) return;
     }
     const char message[] = "flatscan: interrupted; partial outputs removed\n";
@@ -80,7 +81,10 @@ std::string UnknownCommandMessage(int argc, char** argv, const CLI::App& app) {
 
 }  // namespace
 
-void StopGracefullyOnSignal(std::atomic<bool>* stop) { graceful_stop = stop; }
+const std::atomic<bool>& StopGracefullyOnSignal() {
+  graceful_mode = true;
+  return graceful_stop;
+}
 
 int RunCli(int argc, char** argv) {
   RemovePartialOutputsOnInterrupt();

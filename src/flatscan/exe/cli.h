@@ -6,8 +6,9 @@
 
 namespace flatscan {
 int RunCli(int argc, char** argv);
-// A resident command (the station) that stops gracefully: the first SIGINT or SIGTERM
-// sets `*stop` (the command finishes what is in flight and exits 0) instead of ending
-// the process; a second one ends it (exit 2). nullptr restores the default.
-void StopGracefullyOnSignal(std::atomic<bool>* stop);
+// For a resident command (the station): from this call on, the first SIGINT or SIGTERM
+// sets the returned flag (the command finishes what is in flight and exits 0) instead
+// of ending the process; a second one ends it (exit 2). The flag lives as long as the
+// process.
+const std::atomic<bool>& StopGracefullyOnSignal();
 }

@@ -71,7 +71,7 @@ class ResultsCommand : public Command {
       if (csv) os << kCsvHeader << "\n";
       store->ForEach(range, [&](const StationRecord& r) {
         if (csv) os << CsvLine(r);
-        else os << StationRecordToJson(r).dump() << "\n";
+        else os << StationRecordToJson(r).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
       });
     };
     if (target == "-") {

@@ -1,6 +1,9 @@
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -17,6 +20,7 @@
 #include "flatscan/station/pair_source.h"
 #include "flatscan/station/recipe.h"
 #include "flatscan/store/results_store.h"
+#include "flatscan/station/image_archive.h"
 #include "flatscan/station/inspection_station.h"
 #include "flatscan/station/status_file.h"
 #include "flatscan/util/error.h"
@@ -53,11 +57,25 @@ class StationCommand : public Command {
                               "Run an inspection station: measure every pair a source gives with the active recipe, "
                               "commit a record per pair to the results store, then publish it. Runs until SIGINT or "
                               "SIGTERM (finishes the pairs in flight, exit 0) or, with --until-idle, until idle.");
-    sub_->footer("Example: flatscan station --recipe shield.yml --source pairs:pairs.csv --store results.db "
+    sub_->footer("Example: flatscan station --recipe shield.yml --source folder:incoming --store results.db\n"
+                 "Replay:  flatscan station --recipe shield.yml --source pairs:pairs.csv --store results.db "
                  "--until-idle 5\nThen:    flatscan results --store results.db --csv\nSee docs/station.md.");
     sub_->add_option("--recipe", recipes_, "recipe file (YAML; repeat for several: the first is active)")->required();
-    sub_->add_option("--source", source_, "where pairs come from: pairs:FILE.csv (replay a pairs file)")->required();
+    sub_->add_option("--source", source_,
+                     "where pairs come from: folder:DIR (ID_left.png + ID_right.png appearing in DIR, watched) or "
+                     "pairs:FILE.csv (replay a pairs file)")
+        ->required();
+    sub_->add_option("--half-pair-timeout", half_pair_timeout_s_,
+                     "folder: seconds after which one image without its partner gets a not-measured record")
+        ->default_val(half_pair_timeout_s_)
+        ->check(RealIn(0, 3600));
+    sub_->add_option("--keep-done", keep_done_, "folder: recorded pairs kept in DIR/done/ (the newest; 0: none)")
+        ->default_val(keep_done_)
+        ->check(IntegerIn(0, 10'000'000));
     sub_->add_option("--store", store_, "results store (SQLite file; created when missing)")->required();
+    sub_->add_option("--archive", archive_,
+                     "folder for the images of every fail and not-measured pair and one pass pair in N, within a "
+                     "quota (the recipe's archive policy)");
     sub_->add_option("--station-id", station_id_, "the station's name in its records (default: the host name)");
     sub_->add_option("--until-idle", until_idle_s_,
                      "exit 0 once this many seconds passed since the last record with nothing in flight")
@@ -72,7 +90,10 @@ class StationCommand : public Command {
     CheckStationId(station_id_);
     std::vector<LoadedRecipe> recipes;
     for (const std::string& r : recipes_) recipes.push_back(LoadRecipe(r));
-    const std::unique_ptr<PairSource> source = MakePairSource(source_);
+    FolderSourceOptions folder;
+    folder.half_pair_timeout = std::chrono::milliseconds(std::llround(1000 * half_pair_timeout_s_));
+    folder.keep_done = keep_done_;
+    const std::unique_ptr<PairSource> source = MakePairSource(source_, folder);
     LogToFile(log_.empty() ? Beside(store_, ".log") : log_);
     std::unique_ptr<ResultsStore> store;
     try {
@@ -84,24 +105,33 @@ class StationCommand : public Command {
     options.station_id = station_id_;
     options.software_version = FLATSCAN_VERSION;
     options.until_idle_s = until_idle_s_;
+    std::unique_ptr<ImageArchive> archive;
+    if (!archive_.empty()) archive = MakeArchive(recipes);
     StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,
                       recipes.front().recipe.name);
     InspectionStation station(std::move(recipes), *source, *store, options);
     station.AddPublisher(&status);
-    std::atomic<bool> stop{false};
-    StopGracefullyOnSignal(&stop);
+    station.SetArchive(archive.get());
     try {
-      station.Run(stop);
+      station.Run(StopGracefullyOnSignal());
     } catch (const StoreError& e) {
-      StopGracefullyOnSignal(nullptr);
       spdlog::error("the station stops: it cannot record ({})", e.what());
       return 2;
     }
-    StopGracefullyOnSignal(nullptr);
     return 0;
   }
 
  private:
+  // One archive folder for every recipe: the largest quota and retention any of them asks for.
+  std::unique_ptr<ImageArchive> MakeArchive(const std::vector<LoadedRecipe>& recipes) const {
+    double quota_mb = 0, retention_days = 0;
+    for (const LoadedRecipe& r : recipes) {
+      quota_mb = std::max(quota_mb, r.recipe.archive.quota_mb);
+      retention_days = std::max(retention_days, r.recipe.archive.fail_retention_days);
+    }
+    return std::make_unique<ImageArchive>(archive_, quota_mb, retention_days);
+  }
+
   static void LogToFile(const std::string& file) {
     try {
       auto sink = std::make_shared<spdlog::sinks::rotating_file_sink_mt>(file, kLogFileBytes, kLogFiles);
@@ -114,8 +144,10 @@ class StationCommand : public Command {
   }
 
   std::vector<std::string> recipes_;
-  std::string source_, store_, station_id_, log_, status_;
+  std::string source_, store_, station_id_, log_, status_, archive_;
   std::optional<double> until_idle_s_;
+  double half_pair_timeout_s_ = 10;
+  int keep_done_ = 1000;
 };
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,10 +16,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
+#include <libdeflate.h>
 #include <zlib.h>
 
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/sha256.h"
 
 namespace flatscan {
 
@@ -137,6 +140,57 @@ std::optional<std::string> PngChunkDamage(const std::string& path, uintmax_t fil
   return fmt::format("truncated PNG: the file ends after {} bytes without its IEND chunk", file_bytes);
 }
 
+// The file's bytes, bounded by what its pixels can need (8 bytes a pixel: 16-bit RGBA
+// uncompressed, plus 1 MB of metadata), so that a file padded to gigabytes is refused
+// before it is read.
+std::vector<unsigned char> ReadWholeFile(const std::string& path, const cv::Size& size) {
+  std::error_code ec;
+  const uintmax_t bytes = std::filesystem::file_size(path, ec);
+  const uintmax_t limit = 8 * uintmax_t(size.width) * uintmax_t(size.height) + (1u << 20);
+  if (ec) ThrowInputError("{}: cannot read image ({})", path, ec.message());
+  if (bytes > limit)
+    ThrowInputError("{}: the file has {} bytes, more than a {}x{} image needs (at most {})", path, bytes, size.width,
+                    size.height, limit);
+  std::vector<unsigned char> data(bytes);
+  std::ifstream in(path, std::ios::binary);
+  if (!in.read(reinterpret_cast<char*>(data.data()), std::streamsize(bytes)))
+    ThrowInputError("{}: cannot read image (the file could not be read to its end)", path);
+  return data;
+}
+
+// Undoes a PNG row filter (specification, section 9) for 1 byte per pixel: `row` is the
+// filtered row, `above` the previous decoded row (zeros for the first). Each output byte
+// is the filtered byte plus a predictor from a (left), b (above) and c (above-left), all
+// mod 256: 0 none, 1 a, 2 b, 3 floor((a + b) / 2), 4 Paeth (whichever of a, b, c is
+// nearest to a + b - c, ties in that order). False for an unknown filter type.
+bool UnfilterRow(unsigned char type, const unsigned char* row, const unsigned char* above, unsigned char* out,
+                 uint32_t width) {
+  switch (type) {
+    case 0:
+      std::copy(row, row + width, out);
+      return true;
+    case 1:
+      for (uint32_t x = 0, a = 0; x < width; ++x) a = out[x] = static_cast<unsigned char>(row[x] + a);
+      return true;
+    case 2:
+      for (uint32_t x = 0; x < width; ++x) out[x] = static_cast<unsigned char>(row[x] + above[x]);
+      return true;
+    case 3:
+      for (uint32_t x = 0, a = 0; x < width; ++x) a = out[x] = static_cast<unsigned char>(row[x] + ((a + above[x]) >> 1));
+      return true;
+    case 4:
+      for (uint32_t x = 0; x < width; ++x) {
+        const int a = x > 0 ? out[x - 1] : 0, b = above[x], c = x > 0 ? above[x - 1] : 0;
+        const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
+        const int predictor = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+        out[x] = static_cast<unsigned char>(row[x] + predictor);
+      }
+      return true;
+    default:
+      return false;
+  }
+}
+
 }  // namespace
 
 std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
@@ -158,7 +212,66 @@ std::optional<cv::Size> ReadImageHeaderSize(const std::string& path) {
   return std::nullopt;
 }
 
+cv::Mat1b DecodeGreyPng(const std::vector<unsigned char>& bytes, const std::string& name) {
+  const auto corrupt = [&](const std::string& why) {
+    ThrowInputError("{}: cannot read image (corrupt PNG: {})", name, why);
+  };
+  // The chunks: IHDR first (width, height, bit depth, colour type, interlace), the image
+  // data in one or more IDAT chunks, which together are one zlib stream.
+  if (bytes.size() < 33 || !std::equal(kPngSignature, kPngSignature + 8, bytes.begin()) ||
+      !std::equal(bytes.begin() + 12, bytes.begin() + 16, "IHDR"))
+    corrupt("no IHDR chunk after the signature");
+  const uint32_t width = BigEndian(&bytes[16], 4), height = BigEndian(&bytes[20], 4);
+  const bool grey8 = bytes[24] == 8 && bytes[25] == 0 && bytes[28] == 0;  // depth 8, grey, not interlaced
+  if (!grey8) return {};
+  if (width == 0 || height == 0 || uint64_t(width) * height > uint64_t(kMaxImagePixels))
+    corrupt(fmt::format("its header says {}x{} px", width, height));
+  std::vector<unsigned char> compressed;
+  for (size_t at = 8; at + 12 <= bytes.size();) {
+    const uint32_t length = BigEndian(&bytes[at], 4);
+    if (length > bytes.size() - at - 12) corrupt(fmt::format("chunk at byte {} runs past the end of the file", at));
+    if (std::equal(bytes.begin() + at + 4, bytes.begin() + at + 8, "IDAT"))
+      compressed.insert(compressed.end(), bytes.begin() + at + 8, bytes.begin() + at + 8 + length);
+    if (std::equal(bytes.begin() + at + 4, bytes.begin() + at + 8, "IEND")) break;
+    at += 12 + size_t(length);
+  }
+  // Inflate: every row is its filter type and `width` bytes.
+  const size_t row_bytes = size_t(width) + 1;
+  std::vector<unsigned char> filtered(row_bytes * height);
+  thread_local std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> inflater(
+      libdeflate_alloc_decompressor(), libdeflate_free_decompressor);
+  if (!inflater) throw std::bad_alloc();
+  size_t inflated = 0;
+  const libdeflate_result rc = libdeflate_zlib_decompress(inflater.get(), compressed.data(), compressed.size(),
+                                                          filtered.data(), filtered.size(), &inflated);
+  if (rc != LIBDEFLATE_SUCCESS || inflated != filtered.size())
+    corrupt(rc == LIBDEFLATE_SUCCESS ? fmt::format("its image data inflate to {} bytes, {}x{} px need {}", inflated,
+                                                   width, height, filtered.size())
+                                     : std::string("its image data are not a valid zlib stream"));
+  cv::Mat1b image(static_cast<int>(height), static_cast<int>(width));
+  const std::vector<unsigned char> zero_row(width, 0);
+  for (uint32_t y = 0; y < height; ++y) {
+    const unsigned char* row = &filtered[y * row_bytes];
+    if (!UnfilterRow(row[0], row + 1, y == 0 ? zero_row.data() : image.ptr(int(y) - 1), image.ptr(int(y)), width))
+      corrupt(fmt::format("row {} has filter type {} (expected 0 to 4)", y, row[0]));
+  }
+  return image;
+}
+
+namespace {
+HashedImage ReadGrey(const std::string& path, const cv::Size& expected, bool hash);
+}  // namespace
+
 cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
+  return ReadGrey(path, expected, false).image;
+}
+
+HashedImage ReadGreyImageHashed(const std::string& path, const cv::Size& expected) {
+  return ReadGrey(path, expected, true);
+}
+
+namespace {
+HashedImage ReadGrey(const std::string& path, const cv::Size& expected, bool hash) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) ThrowInputError("{}: no such file", path);
   if (std::filesystem::is_directory(path, ec)) ThrowInputError("{}: is a folder, not an image", path);
@@ -179,9 +292,17 @@ cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
   }
   if (const auto damage = PngChunkDamage(path, std::filesystem::file_size(path, ec)))
     ThrowInputError("{}: {} (expected a complete 8-bit grey PNG file)", path, *damage);
-  cv::Mat image;
+  const std::vector<unsigned char> bytes = ReadWholeFile(path, *header);
+  HashedImage out;
+  if (hash) out.sha256 = Sha256Hex(bytes.data(), bytes.size());
+  const bool png = bytes.size() >= 8 && std::equal(kPngSignature, kPngSignature + 8, bytes.begin());
+  cv::Mat image = png ? DecodeGreyPng(bytes, path) : cv::Mat1b();
+  if (!image.empty()) {
+    out.image = image;
+    return out;
+  }
   try {
-    image = cv::imread(path, cv::IMREAD_UNCHANGED);
+    image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
     ThrowInputError("{}: cannot read image ({})", path, e.msg);
   }
@@ -230,8 +351,10 @@ cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected) {
     }
     image = converted;
   }
-  return image;
+  out.image = image;
+  return out;
 }
+}  // namespace
 
 void WriteImage(const std::string& path, const cv::Mat& image) {
   WriteFileAtomically(path, [&](const std::filesystem::path& tmp) {

@@ -6,11 +6,102 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <zlib.h>
+
+#include <cstdint>
+#include <vector>
 
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
 namespace {
+
+// A PNG chunk: length, type, data, CRC-32 of type and data.
+void AppendChunk(std::vector<uchar>& png, const char* type, const std::vector<uchar>& data) {
+  for (int shift : {24, 16, 8, 0}) png.push_back(uchar(data.size() >> shift));
+  const size_t start = png.size();
+  png.insert(png.end(), type, type + 4);
+  png.insert(png.end(), data.begin(), data.end());
+  const uLong crc = crc32(0L, png.data() + start, uInt(png.size() - start));
+  for (int shift : {24, 16, 8, 0}) png.push_back(uchar(crc >> shift));
+}
+
+// An 8-bit grey PNG of `image` whose row y uses filter type filters[y % size] (the
+// forward filters of the PNG specification, section 9), its data in IDAT chunks of
+// `idat_bytes`.
+std::vector<uchar> PngWithFilters(const cv::Mat1b& image, const std::vector<int>& filters, size_t idat_bytes = 1 << 20) {
+  std::vector<uchar> raw;
+  for (int y = 0; y < image.rows; ++y) {
+    const int type = filters[size_t(y) % filters.size()];
+    raw.push_back(uchar(type));
+    for (int x = 0; x < image.cols; ++x) {
+      const int a = x > 0 ? image(y, x - 1) : 0, b = y > 0 ? image(y - 1, x) : 0,
+                c = x > 0 && y > 0 ? image(y - 1, x - 1) : 0;
+      const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+      const int predictor[5] = {0, a, b, (a + b) / 2, pa <= pb && pa <= pc ? a : pb <= pc ? b : c};
+      raw.push_back(uchar(image(y, x) - predictor[type < 5 ? type : 0]));  // type 5+: a bad file
+    }
+  }
+  std::vector<uchar> z(compressBound(uLong(raw.size())));
+  uLongf z_size = uLongf(z.size());
+  compress2(z.data(), &z_size, raw.data(), uLong(raw.size()), 6);
+  z.resize(z_size);
+  std::vector<uchar> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  std::vector<uchar> ihdr;
+  for (uint32_t v : {uint32_t(image.cols), uint32_t(image.rows)})
+    for (int shift : {24, 16, 8, 0}) ihdr.push_back(uchar(v >> shift));
+  ihdr.insert(ihdr.end(), {8, 0, 0, 0, 0});  // depth 8, grey, deflate, adaptive filters, not interlaced
+  AppendChunk(png, "IHDR", ihdr);
+  for (size_t at = 0; at < z.size(); at += idat_bytes)
+    AppendChunk(png, "IDAT", std::vector<uchar>(z.begin() + long(at), z.begin() + long(std::min(z.size(), at + idat_bytes))));
+  AppendChunk(png, "IEND", {});
+  return png;
+}
+
+cv::Mat1b RandomImage(int rows, int cols, uint64_t seed) {
+  cv::Mat1b image(rows, cols);
+  cv::RNG rng(seed);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  return image;
+}
+
+// flatscan's PNG decoder (libdeflate, its own row filters) against the image and OpenCV.
+TEST(DecodeGreyPng, EveryRowFilterDecodesExactly) {
+  const cv::Mat1b image = RandomImage(37, 53, 5);
+  for (const std::vector<int>& filters : std::vector<std::vector<int>>{{0}, {1}, {2}, {3}, {4}, {0, 1, 2, 3, 4}}) {
+    const std::vector<uchar> png = PngWithFilters(image, filters, 100);  // several IDAT chunks
+    const cv::Mat1b ours = DecodeGreyPng(png, "test.png");
+    ASSERT_EQ(ours.size(), image.size());
+    EXPECT_EQ(cv::norm(ours, image, cv::NORM_INF), 0) << "filter " << filters[0];
+    EXPECT_EQ(cv::norm(ours, cv::imdecode(png, cv::IMREAD_GRAYSCALE), cv::NORM_INF), 0);
+  }
+  std::vector<uchar> opencv;  // what the simulator and OpenCV-based camera programs write
+  cv::imencode(".png", image, opencv);
+  EXPECT_EQ(cv::norm(DecodeGreyPng(opencv, "opencv.png"), image, cv::NORM_INF), 0);
+}
+
+TEST(DecodeGreyPng, OtherPngsAreLeftToOpenCvAndCorruptDataNamed) {
+  std::vector<uchar> sixteen;
+  cv::imencode(".png", cv::Mat1w(8, 8, ushort{1000}), sixteen);
+  EXPECT_TRUE(DecodeGreyPng(sixteen, "16.png").empty());
+  std::vector<uchar> colour;
+  cv::imencode(".png", cv::Mat3b(8, 8, cv::Vec3b(1, 2, 3)), colour);
+  EXPECT_TRUE(DecodeGreyPng(colour, "rgb.png").empty());
+
+  const cv::Mat1b image = RandomImage(20, 30, 6);
+  std::vector<uchar> png = PngWithFilters(image, {4});
+  std::vector<uchar> garbled = png;
+  garbled[41 + 10] ^= 0xFF;  // inside the zlib stream of the first IDAT
+  EXPECT_EQ(testing::InputErrorOf([&] { DecodeGreyPng(garbled, "g.png"); }),
+            "g.png: cannot read image (corrupt PNG: its image data are not a valid zlib stream)");
+  const std::vector<uchar> wrong_size = PngWithFilters(RandomImage(19, 30, 6), {4});
+  std::vector<uchar> lying = wrong_size;
+  lying[23] = 20;  // the header now says 20 rows, the data hold 19
+  EXPECT_EQ(testing::InputErrorOf([&] { DecodeGreyPng(lying, "l.png"); }),
+            "l.png: cannot read image (corrupt PNG: its image data inflate to 589 bytes, 30x20 px need 620)");
+  EXPECT_EQ(testing::InputErrorOf([&] { DecodeGreyPng(PngWithFilters(image, {0, 7}), "f.png"); }),
+            "f.png: cannot read image (corrupt PNG: row 1 has filter type 7 (expected 0 to 4))");
+}
 
 TEST(ImageHeader, SizeOfEveryFormatTheStationReads) {
   testing::ScratchDir dir("image-header");

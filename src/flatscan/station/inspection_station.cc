@@ -28,14 +28,19 @@ std::string HashOrEmpty(const std::filesystem::path& file) {
   }
 }
 
-InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& pair, const InspectionInputs& inputs) {
+// The pair's record; `r`'s image hashes are those of the bytes decoded.
+InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& pair, const InspectionInputs& inputs,
+                                  StationRecord& r) {
   const Recipe& recipe = loaded.recipe;
   if (pair.not_measurable) return NotMeasuredRecord(*pair.not_measurable, recipe.params, recipe.spec, inputs);
   try {
-    const cv::Mat1b left = ReadGreyImage(inputs.left_file, {loaded.rig.left.width, loaded.rig.left.height});
-    const cv::Mat1b right = ReadGreyImage(inputs.right_file, {loaded.rig.right.width, loaded.rig.right.height});
-    const InspectionResult result =
-        InspectPart(loaded.rig, loaded.plane, left, right, recipe.params, inputs.left_file, inputs.right_file);
+    const HashedImage left = ReadGreyImageHashed(inputs.left_file, {loaded.rig.left.width, loaded.rig.left.height});
+    r.left_sha256 = left.sha256;
+    const HashedImage right =
+        ReadGreyImageHashed(inputs.right_file, {loaded.rig.right.width, loaded.rig.right.height});
+    r.right_sha256 = right.sha256;
+    const InspectionResult result = InspectPart(loaded.rig, loaded.plane, left.image, right.image, recipe.params,
+                                                inputs.left_file, inputs.right_file);
     if (const auto wrong = WrongPartReason(recipe, result))
       return NotMeasuredRecord(*wrong, recipe.params, recipe.spec, inputs);
     return MeasuredRecord(result, recipe.params, recipe.spec, inputs);
@@ -60,13 +65,14 @@ StationRecord MeasureSourcePair(const LoadedRecipe& loaded, const SourcePair& pa
   r.recipe_name = loaded.recipe.name;
   r.recipe_sha256 = loaded.recipe.sha256;
   r.software_version = options.software_version;
-  r.left_sha256 = HashOrEmpty(pair.left);
-  r.right_sha256 = HashOrEmpty(pair.right);
   InspectionInputs inputs = loaded.inputs;
   inputs.id = pair.source_id;
   inputs.left_file = pair.left.string();
   inputs.right_file = pair.right.string();
-  r.inspection = InspectOrExplain(loaded, pair, inputs);
+  r.inspection = InspectOrExplain(loaded, pair, inputs, r);
+  // An image that was not decoded (half pair, corrupt file) is hashed as a file.
+  if (r.left_sha256.empty()) r.left_sha256 = HashOrEmpty(pair.left);
+  if (r.right_sha256.empty()) r.right_sha256 = HashOrEmpty(pair.right);
   return r;
 }
 
@@ -82,14 +88,31 @@ void InspectionStation::SetActiveRecipe(size_t index) {
   spdlog::info("active recipe: {}", recipes_[index].recipe.name);
 }
 
-void InspectionStation::Deliver(StationRecord& record, const SourcePair& pair) {
+// A pair on its way from the measuring stage to the store.
+struct InspectionStation::Measured {
+  StationRecord record;
+  SourcePair pair;
+  size_t recipe = 0;
+};
+
+void InspectionStation::Deliver(Measured& measured) {
+  StationRecord& record = measured.record;
+  const SourcePair& pair = measured.pair;
   if (store_.Contains(record.source_id, record.left_sha256, record.right_sha256)) {
-    ++counts_.already_recorded;
-    spdlog::info("{}: already recorded (same id and images), skipped", record.source_id);
-    source_.Done(pair);
+    SkipRecorded(pair);  // not archived again either
     return;
   }
-  store_.Commit(record);  // durable before anything is published
+  if (archive_) {
+    try {
+      record.archive = archive_->Keep(record, pair, recipes_[measured.recipe].recipe.archive);
+    } catch (const std::exception& e) {  // a full disk: the record still goes to the store
+      spdlog::error("{}: images not archived: {}", record.source_id, e.what());
+    }
+  }
+  if (!store_.Commit(record)) {  // durable before anything is published
+    SkipRecorded(pair);
+    return;
+  }
   ++counts_.committed;
   const InspectionRecord& in = record.inspection;
   if (!in.measured) {
@@ -101,68 +124,98 @@ void InspectionStation::Deliver(StationRecord& record, const SourcePair& pair) {
                  VerdictName(in.judgement.verdict), in.judgement.marginal ? " (marginal)" : "", in.values.flatness_mm,
                  in.spec.tolerance_mm);
   }
-  source_.Done(pair);
+  SourceDone(pair);
   Publish(record);
 }
 
+void InspectionStation::SkipRecorded(const SourcePair& pair) {
+  ++counts_.already_recorded;
+  spdlog::info("{}: already recorded (same id and images), skipped", pair.source_id);
+  SourceDone(pair);
+}
+
+// The record is safe; a source that cannot tidy up (move the files) is logged, and
+// the pair is taken again, and skipped, after a restart.
+void InspectionStation::SourceDone(const SourcePair& pair) {
+  try {
+    source_.Done(pair);
+  } catch (const std::exception& e) {
+    spdlog::error("{}: the source could not finish with the pair: {}", pair.source_id, e.what());
+  }
+}
+
 void InspectionStation::Publish(const StationRecord& record) {
+  Notify("publishing #" + std::to_string(record.sequence), [&](RecordPublisher& p) { p.Publish(record, counts_); });
+}
+
+// Calls `f` on every publisher; an exception from one is logged and does not reach the
+// others or the station.
+void InspectionStation::Notify(const std::string& what, const std::function<void(RecordPublisher&)>& f) {
   for (RecordPublisher* publisher : publishers_) {
     try {
-      publisher->Publish(record, counts_);
+      f(*publisher);
     } catch (const std::exception& e) {
-      spdlog::error("#{}: publishing failed (the record is in the store): {}", record.sequence, e.what());
+      spdlog::error("{} failed (the record is in the store): {}", what, e.what());
     }
   }
 }
 
 StationCounts InspectionStation::Run(const std::atomic<bool>& stop) {
+  spdlog::info("station {}: taking pairs from {} with recipe {}", options_.station_id, source_.Name(),
+               recipes_[active_].recipe.name);
+  try {
+    RunPipeline(stop);
+  } catch (const std::exception& e) {
+    spdlog::error("station {}: stopped: {}", options_.station_id, e.what());
+    Notify("publishing the failure", [&](RecordPublisher& p) { p.Failed(counts_, e.what()); });
+    throw;
+  }
+  spdlog::info("station {}: stopped; {} records committed ({} pass, {} fail, {} not measured), {} already recorded",
+               options_.station_id, counts_.committed, counts_.pass, counts_.fail, counts_.not_measured,
+               counts_.already_recorded);
+  Notify("publishing the stop", [&](RecordPublisher& p) { p.Stopped(counts_); });
+  return counts_;
+}
+
+void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
   using Item = std::pair<SourcePair, size_t>;  // the pair and its recipe
   std::atomic<int64_t> in_flight{0};
+  // Set when a record cannot be committed: the input stage stops taking pairs (else it
+  // would wait for pairs while the pipeline waits for it to return).
+  std::atomic<bool> failed{false};
   std::atomic<Clock::rep> last_activity{Clock::now().time_since_epoch().count()};
   const auto idle_for = [&] {
     return std::chrono::duration<double>(Clock::now() - Clock::time_point(Clock::duration(last_activity.load())))
         .count();
   };
-  spdlog::info("station {}: taking pairs from {} with recipe {}", options_.station_id, source_.Name(),
-               recipes_[active_].recipe.name);
-  tbb::parallel_pipeline(
-      size_t(options_.max_in_flight),
-      tbb::make_filter<void, Item>(tbb::filter_mode::serial_in_order,
-                                   [&](tbb::flow_control& control) -> Item {
-                                     while (!stop) {
-                                       if (auto pair = source_.Next(kPollWait)) {
-                                         ++in_flight;
-                                         return {std::move(*pair), active_.load()};
-                                       }
-                                       if (options_.until_idle_s && in_flight == 0 &&
-                                           idle_for() >= *options_.until_idle_s)
-                                         break;
-                                     }
-                                     control.stop();
-                                     return {};
-                                   }) &
-          tbb::make_filter<Item, std::pair<StationRecord, SourcePair>>(
-              tbb::filter_mode::parallel,
-              [&](const Item& item) {
-                return std::pair(MeasureSourcePair(recipes_[item.second], item.first, options_), item.first);
-              }) &
-          tbb::make_filter<std::pair<StationRecord, SourcePair>, void>(
-              tbb::filter_mode::serial_in_order, [&](std::pair<StationRecord, SourcePair> done) {
-                Deliver(done.first, done.second);
-                last_activity = Clock::now().time_since_epoch().count();
-                --in_flight;
-              }));
-  spdlog::info("station {}: stopped; {} records committed ({} pass, {} fail, {} not measured), {} already recorded",
-               options_.station_id, counts_.committed, counts_.pass, counts_.fail, counts_.not_measured,
-               counts_.already_recorded);
-  for (RecordPublisher* publisher : publishers_) {
-    try {
-      publisher->Stopped(counts_);
-    } catch (const std::exception& e) {
-      spdlog::error("publishing the station's stop failed: {}", e.what());
+  const auto next = [&](tbb::flow_control& control) -> Item {
+    while (!stop && !failed) {
+      if (auto pair = source_.Next(kPollWait)) {
+        ++in_flight;
+        return {std::move(*pair), active_.load()};
+      }
+      if (options_.until_idle_s && in_flight == 0 && idle_for() >= *options_.until_idle_s) break;
     }
-  }
-  return counts_;
+    control.stop();
+    return {};
+  };
+  const auto measure = [&](const Item& item) {
+    return Measured{MeasureSourcePair(recipes_[item.second], item.first, options_), item.first, item.second};
+  };
+  const auto deliver = [&](Measured measured) {
+    try {
+      Deliver(measured);
+    } catch (...) {
+      failed = true;
+      throw;
+    }
+    last_activity = Clock::now().time_since_epoch().count();
+    --in_flight;
+  };
+  tbb::parallel_pipeline(size_t(options_.max_in_flight),
+                         tbb::make_filter<void, Item>(tbb::filter_mode::serial_in_order, next) &
+                             tbb::make_filter<Item, Measured>(tbb::filter_mode::parallel, measure) &
+                             tbb::make_filter<Measured, void>(tbb::filter_mode::serial_in_order, deliver));
 }
 
 }  // namespace flatscan

@@ -14,10 +14,12 @@
 // cannot be written stops it (StoreError): it can record nothing.
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "flatscan/station/image_archive.h"
 #include "flatscan/station/pair_source.h"
 #include "flatscan/station/recipe.h"
 #include "flatscan/store/results_store.h"
@@ -46,8 +48,10 @@ class RecordPublisher {
  public:
   virtual ~RecordPublisher() = default;
   virtual void Publish(const StationRecord& record, const StationCounts& counts) = 0;
-  // The station stopped (exit or idle): a last status.
+  // The station stopped (a signal or idle): a last status.
   virtual void Stopped(const StationCounts& /*counts*/) {}
+  // The station stops because it cannot record (`reason`).
+  virtual void Failed(const StationCounts& counts, const std::string& /*reason*/) { Stopped(counts); }
 };
 
 // The record a station makes of one pair (the parallel stage), without sequence and time.
@@ -63,6 +67,9 @@ class InspectionStation {
   // pairs in flight are then not recorded, and their source files are left in place).
   StationCounts Run(const std::atomic<bool>& stop);
 
+  // Keep images in `archive` by each recipe's policy (image_archive.h); nullptr: none.
+  void SetArchive(ImageArchive* archive) { archive_ = archive; }
+
   // Publishers get each record once it is committed, in this order.
   void AddPublisher(RecordPublisher* publisher) { publishers_.push_back(publisher); }
 
@@ -71,14 +78,20 @@ class InspectionStation {
   size_t ActiveRecipe() const { return active_; }
 
  private:
-  void Deliver(StationRecord& record, const SourcePair& pair);
+  struct Measured;
+  void RunPipeline(const std::atomic<bool>& stop);
+  void Deliver(Measured& measured);
+  void SkipRecorded(const SourcePair& pair);
+  void SourceDone(const SourcePair& pair);
   void Publish(const StationRecord& record);
+  void Notify(const std::string& what, const std::function<void(RecordPublisher&)>& f);
 
   std::vector<LoadedRecipe> recipes_;
   PairSource& source_;
   ResultsStore& store_;
   StationOptions options_;
   std::vector<RecordPublisher*> publishers_;
+  ImageArchive* archive_ = nullptr;
   std::atomic<size_t> active_{0};
   StationCounts counts_;
 };

@@ -1,10 +1,12 @@
 #include "flatscan/station/pair_source.h"
 
+#include <thread>
 #include <vector>
 
 #include <spdlog/spdlog.h>
 
 #include "flatscan/io/pairs_csv.h"
+#include "flatscan/station/folder_source.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -20,8 +22,11 @@ class PairsFileSource : public PairSource {
         break;
       }
   }
-  std::optional<SourcePair> Next(std::chrono::milliseconds /*wait*/) override {
-    if (next_ == pairs_.size()) return std::nullopt;
+  std::optional<SourcePair> Next(std::chrono::milliseconds wait) override {
+    if (next_ == pairs_.size()) {  // replayed: wait as asked, not spin
+      std::this_thread::sleep_for(wait);
+      return std::nullopt;
+    }
     const PairEntry& p = pairs_[next_++];
     return SourcePair{p.id, p.left, p.right, std::nullopt};
   }
@@ -40,11 +45,13 @@ std::unique_ptr<PairSource> MakePairsFileSource(const std::filesystem::path& csv
   return std::make_unique<PairsFileSource>(csv);
 }
 
-std::unique_ptr<PairSource> MakePairSource(const std::string& spec) {
+std::unique_ptr<PairSource> MakePairSource(const std::string& spec, const FolderSourceOptions& folder) {
   const auto colon = spec.find(':');
   const std::string kind = spec.substr(0, colon), where = colon == std::string::npos ? "" : spec.substr(colon + 1);
   if (kind == "pairs" && !where.empty()) return MakePairsFileSource(where);
-  ThrowInputError("--source '{}': expected pairs:FILE.csv (a pairs file to replay)", spec);
+  if (kind == "folder" && !where.empty()) return MakeFolderSource(where, folder);
+  ThrowInputError("--source '{}': expected folder:DIR (a folder to watch) or pairs:FILE.csv (a pairs file to replay)",
+                  spec);
 }
 
 }  // namespace flatscan

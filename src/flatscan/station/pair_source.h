@@ -1,7 +1,7 @@
 #pragma once
 // Where a station's pairs come from. One pipeline, several sources: a replay of a
-// pairs file (`pairs:FILE.csv`, io/pairs_csv.h), a watched folder (next), cameras
-// (next). A source hands out pairs; the station tells it when a pair's record is
+// pairs file (`pairs:FILE.csv`, io/pairs_csv.h), a watched folder (`folder:DIR`,
+// station/folder_source.h), cameras (next). A source hands out pairs; the station tells it when a pair's record is
 // committed, so that a source that moves or deletes files does so only then.
 #include <chrono>
 #include <filesystem>
@@ -17,6 +17,9 @@ struct SourcePair {
   std::optional<std::string> not_measurable;  // why it cannot be measured (a half pair past its timeout)
 };
 
+// Thread safety: the station calls Next() from one thread and Done() from another, at
+// the same time; an implementation guards what the two share. Done() may throw (the
+// station logs it; the record is already safe).
 class PairSource {
  public:
   virtual ~PairSource() = default;
@@ -30,12 +33,24 @@ class PairSource {
   virtual std::string Name() const = 0;
 };
 
+// The folder source's timing and clean-up (station/folder_source.h).
+struct FolderSourceOptions {
+  // A half pair is reported after this: long enough for a camera program to write the
+  // second image after the first, short enough that a lost image is reported within a
+  // few parts.
+  std::chrono::milliseconds half_pair_timeout{10000};
+  // A file found at start-up counts once it has not been modified for this long.
+  std::chrono::milliseconds settle{1000};
+  // Pairs kept in done/ (the newest); 0 keeps none (files are deleted once recorded).
+  int keep_done = 1000;
+};
+
 // `pairs:FILE.csv`: every pair the file lists, in order (paths relative to the file).
 // Throws InputError as ReadPairsCsv does.
 std::unique_ptr<PairSource> MakePairsFileSource(const std::filesystem::path& csv);
 
-// A source from its command-line form: "pairs:FILE.csv" (or "folder:DIR", once
-// there). Throws InputError naming the accepted forms otherwise.
-std::unique_ptr<PairSource> MakePairSource(const std::string& spec);
+// A source from its command-line form: "pairs:FILE.csv" or "folder:DIR". Throws
+// InputError naming the accepted forms otherwise.
+std::unique_ptr<PairSource> MakePairSource(const std::string& spec, const FolderSourceOptions& folder = {});
 
 }  // namespace flatscan

@@ -28,10 +28,13 @@ class RecipeReader {
   RecipeReader(std::string file, YAML::Node map, std::string prefix, const std::set<std::string>& allowed)
       : file_(std::move(file)), map_(std::move(map)), prefix_(std::move(prefix)) {
     if (!map_.IsMap()) Fail("", "a mapping of keys to values", Shown(map_));
+    std::set<std::string> seen;
     for (const auto& item : map_) {
-      const std::string key = item.first.as<std::string>();
+      if (!item.first.IsScalar()) Fail("", "keys that are names", "a key that is " + Shown(item.first));
+      const std::string key = item.first.Scalar();
       if (!allowed.count(key))
         Fail(key, fmt::format("one of the recipe's keys ({})", fmt::join(allowed, ", ")), "an unknown key");
+      if (!seen.insert(key).second) Fail(key, "each key once", "it twice (which one holds?)");
     }
   }
   bool Has(const std::string& key) const { return bool(map_[key]); }

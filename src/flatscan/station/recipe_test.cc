@@ -90,6 +90,8 @@ TEST_F(RecipeTest, BadKeysAreNamedWithWhatWasExpected) {
   EXPECT_EQ(ErrorOf(Minimal() + "side_faces: tilted\n"), f + ": side_faces: expected local, centre or support, found 'tilted'");
   EXPECT_EQ(ErrorOf("name: [shield\n"), f + ": line 2: not valid YAML (end of sequence flow not found)");
   EXPECT_EQ(ErrorOf("- a list\n"), f + ": (top level): expected a mapping of keys to values, found a list");
+  EXPECT_EQ(ErrorOf(Minimal() + "tolerance_mm: 0.5\n"),
+            f + ": tolerance_mm: expected each key once, found it twice (which one holds?)");
   EXPECT_EQ(testing::InputErrorOf([&] { LoadRecipe(dir_->path() / "none.yml"); }),
             (dir_->path() / "none.yml").string() + ": no such recipe file");
 }

@@ -26,6 +26,11 @@ void StatusFile::Publish(const StationRecord& record, const StationCounts& count
 
 void StatusFile::Stopped(const StationCounts& counts) { Write(counts, "stopped"); }
 
+void StatusFile::Failed(const StationCounts& counts, const std::string& reason) {
+  last_error_ = reason;
+  Write(counts, "failed");
+}
+
 void StatusFile::Write(const StationCounts& c, const char* state) {
   const int64_t measured = c.pass + c.fail;
   const nlohmann::json j = {

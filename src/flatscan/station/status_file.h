@@ -2,12 +2,14 @@
 // The station's status file: a small JSON document rewritten atomically after every
 // record (so a reader never sees half of one), for a supervisor's script or a
 // monitoring agent:
-//   {"station_id", "state": "running" | "stopped", "started_utc", "updated_utc",
+//   {"station_id", "state": "running" | "stopped" | "failed" (it cannot record),
+//    "started_utc", "updated_utc",
 //    "recipe": the last record's recipe, and since the station started: "committed",
 //    "pass", "fail", "not_measured",
 //    "already_recorded", "yield" (pass / measured; null before the first measured
 //    part), "rate_per_min" (records committed in the last 60 s), "last_sequence",
-//    "last_error" (the last not-measured reason, with its source id; null if none)}
+//    "last_error" (the last not-measured reason with its source id, or why the station
+//    failed; null if none)}
 #include <chrono>
 #include <deque>
 #include <filesystem>
@@ -22,6 +24,7 @@ class StatusFile : public RecordPublisher {
   StatusFile(std::filesystem::path path, std::string station_id, std::string recipe_name);
   void Publish(const StationRecord& record, const StationCounts& counts) override;
   void Stopped(const StationCounts& counts) override;
+  void Failed(const StationCounts& counts, const std::string& reason) override;
 
  private:
   void Write(const StationCounts& counts, const char* state);

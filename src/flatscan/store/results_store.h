@@ -35,9 +35,11 @@ struct TimeRange {
 class ResultsStore {
  public:
   virtual ~ResultsStore() = default;
-  // Assigns record.sequence and record.time_utc, then commits it durably. Throws
-  // StoreError (nothing committed) when it cannot.
-  virtual void Commit(StationRecord& record) = 0;
+  // Assigns record.sequence and record.time_utc, then commits it durably; true. False,
+  // and nothing committed, when the store already holds a record of this pair (the same
+  // source id and image hashes: checked in the same transaction). Throws StoreError
+  // (nothing committed) when it cannot.
+  virtual bool Commit(StationRecord& record) = 0;
   // The last committed sequence number; 0 for an empty store.
   virtual int64_t LastSequence() = 0;
   // Whether a record of this pair (the same source id and the same image bytes) exists.
@@ -49,10 +51,12 @@ class ResultsStore {
 
 // The embedded store: an SQLite file (WAL journal, synchronous=FULL: each Commit is one
 // transaction, on disk when it returns). `create` (a station): open for writing,
-// creating the file when missing and migrating an older schema; otherwise (`flatscan
-// results`) open an existing store read-only. Throws StoreError naming the file when it
-// cannot be opened, is not a flatscan store, or was written by a newer flatscan (its
-// schema version is higher than this one knows).
+// creating the file when missing and migrating an older schema, and hold an exclusive
+// lock on "<path>.lock" while open, so that a second station on the same store is
+// refused; otherwise (`flatscan results`) open an existing store read-only. Throws
+// StoreError naming the file when it cannot be opened, is not a flatscan store, was
+// written by a newer flatscan (its schema version is higher than this one knows), or is
+// in use by another station.
 std::unique_ptr<ResultsStore> OpenSqliteStore(const std::string& path, bool create);
 
 // The schema version this flatscan writes (docs/station.md, "Results store").

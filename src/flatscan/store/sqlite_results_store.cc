@@ -5,13 +5,19 @@
 // JSON (`record_json`, StationRecordToJson) so that nothing the record holds is lost
 // to the columns. A newer flatscan migrates an older file forward (kMigrations); an
 // older flatscan refuses a newer file rather than misread it.
+#include <fcntl.h>
 #include <sqlite3.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <vector>
 
 #include <fmt/format.h>
 
-#include <vector>
-
 #include "flatscan/store/results_store.h"
+#include "flatscan/util/error.h"
 
 namespace flatscan {
 namespace {
@@ -85,39 +91,50 @@ class Statement {
 class SqliteResultsStore : public ResultsStore {
  public:
   SqliteResultsStore(const std::string& path, bool create) : file_(path) {
+    if (create) LockForThisStation();
     // Reading (`flatscan results`) opens the file read-only: it never changes a file,
     // not even one that is not a store.
     const int flags = create ? SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE : SQLITE_OPEN_READONLY;
     if (sqlite3_open_v2(path.c_str(), &db_, flags | SQLITE_OPEN_FULLMUTEX, nullptr) != SQLITE_OK) {
       const std::string reason = db_ ? sqlite3_errmsg(db_) : "out of memory";
-      sqlite3_close(db_);
+      Release();
       throw StoreError(fmt::format("{}: cannot open the results store ({})", path, reason));
     }
     try {
       sqlite3_busy_timeout(db_, 10000);  // another process (results, a backup) holding the lock
       if (create) {
+        CheckOurs();  // before anything is written to it
         Execute("PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL;", "set the journal mode");
         Migrate();
       } else {
         CheckReadable();
       }
+      opened_ = true;
     } catch (...) {
-      sqlite3_close(db_);
+      Release();
       throw;
     }
   }
-  ~SqliteResultsStore() override { sqlite3_close(db_); }
+  ~SqliteResultsStore() override { Release(); }
 
-  void Commit(StationRecord& record) override {
+  bool Commit(StationRecord& record) override {
     Execute("BEGIN IMMEDIATE", "start a transaction");
     try {
+      if (Contains(record.source_id, record.left_sha256, record.right_sha256)) {
+        Execute("ROLLBACK", "end the transaction");
+        return false;
+      }
       record.sequence = LastSequence() + 1;
       record.time_utc = std::max(UtcNowIso8601(), LastTime());
       Insert(record);
       Execute("COMMIT", "commit the record");
-    } catch (...) {
+      return true;
+    } catch (const StoreError&) {
       sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
       throw;
+    } catch (const std::exception& e) {  // whatever it was, the record is not stored
+      sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+      throw StoreError(fmt::format("{}: cannot commit the record of {} ({})", file_, record.source_id, e.what()));
     }
   }
 
@@ -138,16 +155,21 @@ class SqliteResultsStore : public ResultsStore {
 
   void ForEach(const TimeRange& range, const std::function<void(const StationRecord&)>& visit) override {
     Statement s(db_,
-                "SELECT record_json FROM records WHERE (?1 = '' OR time_utc >= ?1) AND (?2 = '' OR time_utc < ?2) "
-                "ORDER BY sequence",
+                "SELECT sequence, record_json FROM records WHERE (?1 = '' OR time_utc >= ?1) AND "
+                "(?2 = '' OR time_utc < ?2) ORDER BY sequence",
                 file_);
     s.Bind(1, range.from);
     s.Bind(2, range.to);
     while (s.Step()) {
-      const std::string text = s.Text(0);
-      const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-      if (j.is_discarded()) throw StoreError(fmt::format("{}: a record's JSON cannot be parsed", file_));
-      visit(StationRecordFromJson(j));
+      const nlohmann::json j = nlohmann::json::parse(s.Text(1), nullptr, false);
+      StationRecord record;
+      try {
+        if (j.is_discarded()) ThrowInputError("its JSON cannot be parsed");
+        record = StationRecordFromJson(j);
+      } catch (const InputError& e) {
+        throw StoreError(fmt::format("{}: record #{}: {}", file_, s.Int(0), e.what()));
+      }
+      visit(record);
     }
   }
 
@@ -161,23 +183,71 @@ class SqliteResultsStore : public ResultsStore {
     }
   }
 
+  // The schema version (0: a new file, or not ours); the first read of the file, so a
+  // file that is not SQLite at all fails here.
   int Version() {
-    Statement s(db_, "PRAGMA user_version", file_);
-    s.Step();
-    return int(s.Int(0));
+    sqlite3_stmt* stmt = nullptr;
+    const int rc = sqlite3_prepare_v2(db_, "PRAGMA user_version", -1, &stmt, nullptr);
+    const int step = rc == SQLITE_OK ? sqlite3_step(stmt) : rc;
+    const int version = step == SQLITE_ROW ? sqlite3_column_int(stmt, 0) : -1;
+    sqlite3_finalize(stmt);
+    if (version >= 0) return version;
+    if (sqlite3_errcode(db_) == SQLITE_NOTADB)
+      throw StoreError(fmt::format("{}: is not a flatscan results store ({})", file_, sqlite3_errmsg(db_)));
+    // A reader of a WAL store needs its "-shm" file, which it creates when the station
+    // is not running: in a folder it may not write, the open fails.
+    throw StoreError(fmt::format("{}: cannot read the results store ({}; reading needs the store's -shm file, "
+                                 "which SQLite creates beside the store when no station has it open: check that "
+                                 "the folder may be written)",
+                                 file_, sqlite3_errmsg(db_)));
   }
 
-  // Brings the file to this version's schema, one migration per transaction.
-  void Migrate() {
-    int version = Version();
+  // A file this flatscan may write to: a store of a known version, or a new file.
+  void CheckOurs() {
+    const int version = Version();
     if (version > kSqliteStoreSchemaVersion) throw NewerStore(version);
     if (version == 0 && HasOtherTables())
       throw StoreError(fmt::format("{}: is an SQLite file but not a flatscan results store", file_));
-    for (; version < kSqliteStoreSchemaVersion; ++version) {
+  }
+
+  // Brings the file to this version's schema, one migration per transaction (the version
+  // read again inside it).
+  void Migrate() {
+    while (Version() < kSqliteStoreSchemaVersion) {
       Execute("BEGIN IMMEDIATE", "start a migration");
-      Execute(kMigrations[size_t(version)], "migrate the store");
-      Execute(fmt::format("PRAGMA user_version = {}", version + 1).c_str(), "set the schema version");
+      const int version = Version();
+      if (version < kSqliteStoreSchemaVersion) {
+        Execute(kMigrations[size_t(version)], "migrate the store");
+        Execute(fmt::format("PRAGMA user_version = {}", version + 1).c_str(), "set the schema version");
+      }
       Execute("COMMIT", "commit the migration");
+    }
+  }
+
+  // Closes the database and drops the lock (removing a lock file this store created when
+  // the store could not be opened).
+  void Release() {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    if (lock_fd_ >= 0) ::close(lock_fd_);
+    lock_fd_ = -1;
+    if (created_lock_file_ && !opened_) ::unlink((file_ + ".lock").c_str());
+  }
+
+  // One station per store: an exclusive lock on "<store>.lock", held while open (the
+  // kernel drops it when the process ends, also by kill -9). A lock file beside the store,
+  // not on it: closing any descriptor of the database file would drop SQLite's own locks.
+  void LockForThisStation() {
+    const std::string lock = file_ + ".lock";
+    created_lock_file_ = ::access(lock.c_str(), F_OK) != 0;
+    lock_fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (lock_fd_ < 0)
+      throw StoreError(fmt::format("{}: cannot open the store's lock file {} ({})", file_, lock, std::strerror(errno)));
+    if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+      ::close(lock_fd_);
+      lock_fd_ = -1;
+      created_lock_file_ = false;
+      throw StoreError(fmt::format("{}: another station is using this store (it holds {})", file_, lock));
     }
   }
 
@@ -236,12 +306,15 @@ class SqliteResultsStore : public ResultsStore {
     s.BindOptional(16, m, in.coverage);
     s.BindOptional(17, m, in.uncertainty.expanded_mm);
     s.BindOptional(18, !m, in.error);
-    s.Bind(19, StationRecordToJson(r).dump());
+    // Text that is not UTF-8 (a Latin-1 file name) is stored with U+FFFD, not refused.
+    s.Bind(19, StationRecordToJson(r).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     s.Step();
   }
 
   std::string file_;
   sqlite3* db_ = nullptr;
+  int lock_fd_ = -1;
+  bool created_lock_file_ = false, opened_ = false;
 };
 
 }  // namespace

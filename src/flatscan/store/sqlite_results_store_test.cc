@@ -86,6 +86,27 @@ TEST(SqliteResultsStore, CommitsInSequenceAndReadsBackEveryKey) {
   EXPECT_EQ(Pragma(file, "user_version"), std::to_string(kSqliteStoreSchemaVersion));
 }
 
+TEST(SqliteResultsStore, ARecordOfTheSamePairIsNotCommittedTwiceAndOneStationHoldsTheStore) {
+  testing::ScratchDir dir("store-once");
+  const fs::path file = dir.path() / "r.db";
+  auto store = OpenSqliteStore(file.string(), true);
+  StationRecord a = Record("a", std::string(64, '1'), 0.05), again = a;
+  again.record_id = NewRecordId();
+  EXPECT_TRUE(store->Commit(a));
+  EXPECT_FALSE(store->Commit(again));
+  EXPECT_EQ(store->LastSequence(), 1);
+  try {
+    OpenSqliteStore(file.string(), true);
+    ADD_FAILURE() << "a second station opened the store";
+  } catch (const StoreError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              file.string() + ": another station is using this store (it holds " + file.string() + ".lock)");
+  }
+  EXPECT_EQ(All(*OpenSqliteStore(file.string(), false)).size(), 1u);  // a reader is welcome
+  store.reset();
+  EXPECT_NO_THROW(OpenSqliteStore(file.string(), true));  // released with the store
+}
+
 TEST(SqliteResultsStore, TimeRangesIncludeFromAndExcludeTo) {
   testing::ScratchDir dir("store-range");
   auto store = OpenSqliteStore((dir.path() / "r.db").string(), true);
@@ -142,7 +163,11 @@ TEST(SqliteResultsStore, RefusesWhatItCannotUse) {
   {
     std::ofstream(text) << "not a database at all, just some text that is long enough to have a header\n";
   }
-  EXPECT_EQ(error_of(text, true), text.string() + ": cannot set the journal mode (file is not a database)");
+  const std::string text_before = testing::ReadFileBytes(text);
+  EXPECT_EQ(error_of(text, true), text.string() + ": is not a flatscan results store (file is not a database)");
+  EXPECT_EQ(error_of(text, false), text.string() + ": is not a flatscan results store (file is not a database)");
+  EXPECT_EQ(testing::ReadFileBytes(text), text_before);
+  EXPECT_FALSE(fs::exists(text.string() + ".lock"));  // the lock file it made is gone again
 }
 
 }  // namespace

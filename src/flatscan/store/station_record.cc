@@ -2,11 +2,11 @@
 
 #include <cctype>
 #include <chrono>
-#include <random>
 #include <regex>
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <openssl/rand.h>
 
 #include "flatscan/util/error.h"
 
@@ -63,9 +63,12 @@ StationRecord StationRecordFromJson(const json& j) {
 }
 
 std::string NewRecordId() {
-  thread_local std::mt19937_64 rng{std::random_device{}()};
-  const uint64_t hi = (rng() & 0xffffffffffff0fffULL) | 0x0000000000004000ULL;  // version 4
-  const uint64_t lo = (rng() & 0x3fffffffffffffffULL) | 0x8000000000000000ULL;  // variant 10
+  // 122 random bits from OpenSSL's generator (seeded by the kernel): two stations, or
+  // two threads, never draw from the same seed.
+  uint64_t bits[2] = {0, 0};
+  FLATSCAN_CHECK(RAND_bytes(reinterpret_cast<unsigned char*>(bits), sizeof(bits)) == 1);
+  const uint64_t hi = (bits[0] & 0xffffffffffff0fffULL) | 0x0000000000004000ULL;  // version 4
+  const uint64_t lo = (bits[1] & 0x3fffffffffffffffULL) | 0x8000000000000000ULL;  // variant 10
   return fmt::format("{:08x}-{:04x}-{:04x}-{:04x}-{:012x}", hi >> 32, (hi >> 16) & 0xffff, hi & 0xffff, lo >> 48,
                      lo & 0xffffffffffffULL);
 }

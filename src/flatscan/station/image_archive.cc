@@ -1,0 +1,142 @@
+#include "flatscan/station/image_archive.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstring>
+#include <map>
+#include <tuple>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Kind(const InspectionRecord& r) {
+  if (!r.measured) return "not_measured";
+  return r.judgement.pass() ? "pass" : "fail";
+}
+
+std::string SafeName(const std::string& id) {
+  std::string out = id.empty() ? "pair" : id;
+  for (char& c : out)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-') c = '_';
+  if (out.front() == '.') out.front() = '_';
+  return out;
+}
+
+// `target` becomes `source`'s bytes: a hard link where possible, else a copy.
+void LinkOrCopy(const fs::path& source, const fs::path& target) {
+  fs::remove(target);
+  if (::link(source.c_str(), target.c_str()) == 0) return;
+  std::error_code ec;
+  fs::copy_file(source, target, ec);
+  if (ec) ThrowInputError("archive: cannot write {} ({})", target.string(), ec.message());
+}
+
+}  // namespace
+
+ImageArchive::ImageArchive(fs::path dir, double quota_mb, double fail_retention_days)
+    : dir_(std::move(dir)),
+      quota_bytes_(int64_t(quota_mb * 1024 * 1024)),
+      retention_(int64_t(fail_retention_days * 86400)) {
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec || !fs::is_directory(dir_)) ThrowInputError("--archive {}: cannot create the folder ({})", dir_.string(), ec.message());
+  Index();
+  spdlog::info("archive {}: {} pairs, {:.1f} MB of {:.0f} MB", dir_.string(), entries_.size(), bytes_ / 1048576.0,
+               quota_mb);
+}
+
+// One entry per pair already in the archive (files grouped by their name without the
+// side), oldest first.
+void ImageArchive::Index() {
+  std::map<fs::path, Entry> by_pair;
+  for (const char* kind : {"pass", "fail", "not_measured"}) {
+    if (!fs::is_directory(dir_ / kind)) continue;
+    for (const auto& entry : fs::recursive_directory_iterator(dir_ / kind)) {
+      if (!entry.is_regular_file()) continue;
+      std::string stem = entry.path().filename().string();
+      for (const char* side : {"_left.png", "_right.png"})
+        if (stem.ends_with(side)) stem.resize(stem.size() - std::strlen(side));
+      auto [it, added] = by_pair.try_emplace(entry.path().parent_path() / stem);
+      Entry& e = it->second;
+      // file_time_type{} is not "long ago": libstdc++'s file clock has its epoch in 2174.
+      if (added) e.time = fs::file_time_type::min();
+      e.kind = kind;
+      e.time = std::max(e.time, entry.last_write_time());
+      e.files.push_back(entry.path());
+      e.bytes += int64_t(entry.file_size());
+    }
+  }
+  for (auto& [key, e] : by_pair) {
+    bytes_ += e.bytes;
+    entries_.push_back(std::move(e));
+  }
+  std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) { return a.time < b.time; });
+}
+
+ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& pair, const ArchivePolicy& policy) {
+  const std::string kind = Kind(record.inspection);
+  if (kind == "pass") {
+    const bool keep = policy.keep_pass_every > 0 && passes_seen_ % policy.keep_pass_every == 0;
+    ++passes_seen_;
+    if (!keep) return {};
+  }
+  const std::string day = UtcNowIso8601().substr(0, 10);  // the record's day (it is committed next)
+  const fs::path folder = dir_ / kind / day;
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) ThrowInputError("archive: cannot create {} ({})", folder.string(), ec.message());
+  const std::string stem = SafeName(record.source_id) + "_" + record.record_id.substr(0, 8);
+  Entry entry{kind, fs::file_time_type::clock::now(), {}, 0};
+  ArchivedPair out;
+  for (const auto& [source, name, target] : {std::tuple{pair.left, "_left.png", &out.left},
+                                             std::tuple{pair.right, "_right.png", &out.right}}) {
+    if (!fs::is_regular_file(source)) continue;  // the missing half of a pair
+    const fs::path file = folder / (stem + name);
+    LinkOrCopy(source, file);
+    *target = file.string();
+    entry.files.push_back(file);
+    entry.bytes += int64_t(fs::file_size(file));
+  }
+  if (entry.files.empty()) return {};
+  bytes_ += entry.bytes;
+  entries_.push_back(std::move(entry));
+  ApplyQuota();
+  return out;
+}
+
+void ImageArchive::ApplyQuota() {
+  const auto now = fs::file_time_type::clock::now();
+  const auto evictable = [&](const Entry& e, bool pass_only) {
+    return pass_only ? e.kind == "pass" : e.kind != "pass" && now - e.time > retention_;
+  };
+  for (const bool pass_only : {true, false}) {
+    for (auto it = entries_.begin(); bytes_ > quota_bytes_ && it != entries_.end();) {
+      if (!evictable(*it, pass_only)) {
+        ++it;
+        continue;
+      }
+      for (const fs::path& f : it->files) fs::remove(f);
+      bytes_ -= it->bytes;
+      it = entries_.erase(it);
+    }
+  }
+  if (bytes_ > quota_bytes_ && !warned_full_) {
+    spdlog::warn("archive {}: {:.1f} MB, over its quota of {:.0f} MB, all of it fails and not-measured pairs within "
+                 "their retention: nothing more can be removed (raise quota_mb or lower fail_retention_days)",
+                 dir_.string(), bytes_ / 1048576.0, quota_bytes_ / 1048576.0);
+    warned_full_ = true;
+  }
+  if (bytes_ <= quota_bytes_) warned_full_ = false;
+}
+
+}  // namespace flatscan

@@ -1,0 +1,65 @@
+#pragma once
+// The image archive (`station --archive DIR`): the images behind the records that matter,
+// kept by the recipe's policy (recipe.h, `archive`) within a disk quota.
+//
+// What is kept: every "fail" and every "not measured" pair, and one "pass" pair in
+// `keep_pass_every` (the first, then every N-th pass this station run records).
+// Layout: DIR/<pass|fail|not_measured>/<YYYY-MM-DD>/<source id>_<record id's first 8
+// hex digits>_<left|right>.png (the day is the record's UTC day; characters of the source
+// id outside [A-Za-z0-9._-] become '_'). A kept image is a hard link to the pair's file
+// when both are on one file system (no copy, no extra disk until the original goes),
+// else a copy. The record names the two files (`archive`: {left, right}); its
+// left_sha256/right_sha256 are their bytes' hashes.
+//
+// Quota: once the archive's files exceed `quota_mb`, the oldest "pass" pairs are removed
+// first, then "fail" and "not measured" pairs older than `fail_retention_days`, oldest
+// first; a fail within its retention period is never removed (the archive then stays over
+// its quota, with a warning). Age is the image file's modification time. With several
+// recipes, the quota and the retention are the largest any of them asks for, and
+// keep_pass_every is that of the record's recipe.
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "flatscan/station/pair_source.h"
+#include "flatscan/station/recipe.h"
+#include "flatscan/store/station_record.h"
+
+namespace flatscan {
+
+class ImageArchive {
+ public:
+  // Creates DIR when missing and indexes what it already holds. Throws InputError naming
+  // the folder when it cannot be created or read.
+  ImageArchive(std::filesystem::path dir, double quota_mb, double fail_retention_days);
+
+  // Keeps the pair's images when the policy says so (and returns where), then applies the
+  // quota. Empty when not kept. Throws InputError when the images cannot be written
+  // (a full disk): the caller records the part without them.
+  ArchivedPair Keep(const StationRecord& record, const SourcePair& pair, const ArchivePolicy& policy);
+
+  int64_t bytes() const { return bytes_; }
+  size_t pairs() const { return entries_.size(); }
+
+ private:
+  struct Entry {
+    std::string kind;  // pass, fail, not_measured
+    std::filesystem::file_time_type time;
+    std::vector<std::filesystem::path> files;
+    int64_t bytes = 0;
+  };
+  void Index();
+  void ApplyQuota();
+
+  std::filesystem::path dir_;
+  int64_t quota_bytes_;
+  std::chrono::seconds retention_;
+  std::vector<Entry> entries_;  // oldest first
+  int64_t bytes_ = 0;
+  int64_t passes_seen_ = 0;
+  bool warned_full_ = false;
+};
+
+}  // namespace flatscan
