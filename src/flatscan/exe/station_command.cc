@@ -137,7 +137,12 @@ class StationCommand : public Command {
       auto sink = std::make_shared<spdlog::sinks::rotating_file_sink_mt>(file, kLogFileBytes, kLogFiles);
       sink->set_formatter(
           std::make_unique<spdlog::pattern_formatter>("%Y-%m-%dT%H:%M:%S.%eZ %l: %v", spdlog::pattern_time_type::utc));
-      spdlog::default_logger()->sinks().push_back(sink);
+      // The file has every record's line; stderr keeps the level -q chose.
+      const auto logger = spdlog::default_logger();
+      for (const auto& console : logger->sinks()) console->set_level(logger->level());
+      sink->set_level(spdlog::level::info);
+      logger->sinks().push_back(sink);
+      logger->set_level(spdlog::level::info);
     } catch (const spdlog::spdlog_ex& e) {
       ThrowInputError("--log '{}': cannot write the log file ({})", file, e.what());
     }

@@ -123,17 +123,20 @@ TEST_F(StationCommand, RecordsEveryPairWithTheValuesOfInspect) {
   EXPECT_EQ(records[4]["error"], (Dir() / "data/parts/missing_right.png").string() + ": no such file");
   EXPECT_EQ(records[4]["right_sha256"], "");
 
-  // Run again: every pair is already in the store, nothing is recorded twice.
-  const auto again = Station("all.csv", "all.db");
+  // Run again (quiet): every pair is already in the store, nothing is recorded twice; the
+  // log file still has every line, stderr none of the info lines.
+  const auto again = Station("all.csv", "all.db", "-q");
   ASSERT_EQ(again.exit_code, 0) << again.err;
-  EXPECT_NE(again.err.find("0 records committed (0 pass, 0 fail, 0 not measured), 5 already recorded"),
-            std::string::npos)
-      << again.err;
+  EXPECT_EQ(again.err, "");
+  const std::string log = testing::ReadFileBytes(Dir() / "all.log");
+  EXPECT_NE(log.find("0 records committed (0 pass, 0 fail, 0 not measured), 5 already recorded"), std::string::npos)
+      << log;
+  EXPECT_NE(log.find(" info: #1 p0: "), std::string::npos) << log;
   EXPECT_EQ(Results("all.db").size(), 5u);
   const json status = json::parse(testing::ReadFileBytes(Dir() / "all.status.json"));
   EXPECT_EQ(status["state"], "stopped");
   EXPECT_EQ(status["already_recorded"], 5);
-  EXPECT_NE(testing::ReadFileBytes(Dir() / "all.log").find("#5 half: not measured"), std::string::npos);
+  EXPECT_NE(log.find(" warning: #5 half: not measured"), std::string::npos);
 }
 
 TEST_F(StationCommand, ResultsAsCsvAndByTime) {
