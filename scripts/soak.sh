@@ -6,7 +6,7 @@
 # record count checked against the pair count.
 #   scripts/soak.sh [PAIRS=10000] [WORK=/tmp/flatscan-soak]
 # Prints "committed rss_mb" samples, then the totals; exit 0 when every pair has exactly one
-# record, 1 otherwise.
+# record and every pair was measured, 1 otherwise.
 set -euo pipefail
 PAIRS=${1:-10000}
 WORK=${2:-/tmp/flatscan-soak}
@@ -47,4 +47,4 @@ records=$("$BIN" results --store "$WORK/results.db" --csv | tail -n +2 | wc -l)
 ids=$("$BIN" results --store "$WORK/results.db" --csv | tail -n +2 | cut -d, -f3 | sort -u | wc -l)
 measured=$("$BIN" results --store "$WORK/results.db" --csv | tail -n +2 | cut -d, -f5 | grep -c true || true)
 echo "station exit $rc; pairs $PAIRS; records $records; distinct ids $ids; measured $measured"
-[ "$rc" -eq 0 ] && [ "$records" -eq "$PAIRS" ] && [ "$ids" -eq "$PAIRS" ]
+[ "$rc" -eq 0 ] && [ "$records" -eq "$PAIRS" ] && [ "$ids" -eq "$PAIRS" ] && [ "$measured" -eq "$PAIRS" ]

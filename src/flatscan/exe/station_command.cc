@@ -68,7 +68,7 @@ class StationCommand : public Command {
     sub_->add_option("--half-pair-timeout", half_pair_timeout_s_,
                      "folder: seconds after which one image without its partner gets a not-measured record")
         ->default_val(half_pair_timeout_s_)
-        ->check(RealIn(0, 3600));
+        ->check(RealIn(0.1, 3600));
     sub_->add_option("--keep-done", keep_done_, "folder: recorded pairs kept in DIR/done/ (the newest; 0: none)")
         ->default_val(keep_done_)
         ->check(IntegerIn(0, 10'000'000));

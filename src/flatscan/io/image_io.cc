@@ -109,35 +109,33 @@ std::optional<cv::Size> TiffSize(std::ifstream& in, bool little) {
 // was still being written) or "IDAT: CRC error" to stderr, without the file's name,
 // before OpenCV returns an empty image. A chunk is a 4-byte big-endian length, a 4-byte
 // type, the data and a CRC-32 of type and data (PNG specification, section 5.3).
-std::optional<std::string> PngChunkDamage(const std::string& path, uintmax_t file_bytes) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char head[8];
-  if (!in.read(reinterpret_cast<char*>(head), 8) || !std::equal(kPngSignature, kPngSignature + 8, head))
-    return std::nullopt;
+std::optional<std::string> PngChunkDamage(const std::vector<unsigned char>& file) {
+  if (file.size() < 8 || !std::equal(kPngSignature, kPngSignature + 8, file.begin())) return std::nullopt;
   constexpr uint32_t kMaxChunkBytes = 0x7FFFFFFF;  // the specification's limit, 2^31 - 1
-  std::vector<unsigned char> block(1 << 16);
+  const uintmax_t file_bytes = file.size();
   uintmax_t at = 8;  // after the signature
-  while (at + 12 <= file_bytes && in.read(reinterpret_cast<char*>(head), 8)) {
+  while (at + 12 <= file_bytes) {
+    const unsigned char* head = &file[at];
     const uint32_t length = BigEndian(head, 4);
     const std::string type(reinterpret_cast<const char*>(head + 4), 4);
     if (length > kMaxChunkBytes || at + 12 + length > file_bytes)
       return fmt::format("truncated PNG: chunk {} at byte {} needs {} bytes, only {} are left", type, at,
                          12 + static_cast<uintmax_t>(length), file_bytes - at);
-    uLong crc = crc32(0L, head + 4, 4);
-    for (uint32_t left = length; left > 0;) {
-      const uint32_t n = std::min<uint32_t>(left, static_cast<uint32_t>(block.size()));
-      if (!in.read(reinterpret_cast<char*>(block.data()), n)) return "cannot read the file";
-      crc = crc32(crc, block.data(), n);
-      left -= n;
-    }
-    unsigned char stored[4];
-    if (!in.read(reinterpret_cast<char*>(stored), 4)) return "cannot read the file";
-    if (BigEndian(stored, 4) != crc)
+    const uLong crc = crc32(crc32(0L, head + 4, 4), head + 8, length);
+    if (BigEndian(head + 8 + length, 4) != crc)
       return fmt::format("damaged PNG: chunk {} at byte {} fails its CRC check", type, at);
     at += 12 + static_cast<uintmax_t>(length);
     if (type == "IEND") return std::nullopt;
   }
   return fmt::format("truncated PNG: the file ends after {} bytes without its IEND chunk", file_bytes);
+}
+
+// The header was read apart from the bytes decoded: a file replaced in between must still
+// have the expected size.
+void CheckDecodedSize(const std::string& path, const cv::Size& decoded, const cv::Size& expected) {
+  if (!expected.empty() && decoded != expected)
+    ThrowInputError("{}: image is {}x{} but the rig was calibrated for {}x{}: use the images of the calibrated cameras",
+                    path, decoded.width, decoded.height, expected.width, expected.height);
 }
 
 // The file's bytes, bounded by what its pixels can need (8 bytes a pixel: 16-bit RGBA
@@ -221,9 +219,11 @@ cv::Mat1b DecodeGreyPng(const std::vector<unsigned char>& bytes, const std::stri
   if (bytes.size() < 33 || !std::equal(kPngSignature, kPngSignature + 8, bytes.begin()) ||
       !std::equal(bytes.begin() + 12, bytes.begin() + 16, "IHDR"))
     corrupt("no IHDR chunk after the signature");
+  if (BigEndian(&bytes[8], 4) != 13) corrupt("its IHDR chunk is not 13 bytes long");
   const uint32_t width = BigEndian(&bytes[16], 4), height = BigEndian(&bytes[20], 4);
   const bool grey8 = bytes[24] == 8 && bytes[25] == 0 && bytes[28] == 0;  // depth 8, grey, not interlaced
   if (!grey8) return {};
+  if (bytes[26] != 0 || bytes[27] != 0) corrupt("its IHDR names a compression or filter method other than 0");
   if (width == 0 || height == 0 || uint64_t(width) * height > uint64_t(kMaxImagePixels))
     corrupt(fmt::format("its header says {}x{} px", width, height));
   std::vector<unsigned char> compressed;
@@ -290,14 +290,16 @@ HashedImage ReadGrey(const std::string& path, const cv::Size& expected, bool has
                       "cameras",
                       path, header->width, header->height, expected.width, expected.height);
   }
-  if (const auto damage = PngChunkDamage(path, std::filesystem::file_size(path, ec)))
-    ThrowInputError("{}: {} (expected a complete 8-bit grey PNG file)", path, *damage);
+  // From here on, the bytes of one read: checked, hashed and decoded.
   const std::vector<unsigned char> bytes = ReadWholeFile(path, *header);
+  if (const auto damage = PngChunkDamage(bytes))
+    ThrowInputError("{}: {} (expected a complete 8-bit grey PNG file)", path, *damage);
   HashedImage out;
   if (hash) out.sha256 = Sha256Hex(bytes.data(), bytes.size());
   const bool png = bytes.size() >= 8 && std::equal(kPngSignature, kPngSignature + 8, bytes.begin());
   cv::Mat image = png ? DecodeGreyPng(bytes, path) : cv::Mat1b();
   if (!image.empty()) {
+    CheckDecodedSize(path, image.size(), expected);
     out.image = image;
     return out;
   }
@@ -351,6 +353,7 @@ HashedImage ReadGrey(const std::string& path, const cv::Size& expected, bool has
     }
     image = converted;
   }
+  CheckDecodedSize(path, image.size(), expected);
   out.image = image;
   return out;
 }

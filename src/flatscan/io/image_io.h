@@ -25,8 +25,9 @@ std::optional<cv::Size> ReadImageHeaderSize(const std::string& path);
 // oversized, wrongly sized or unsupported image.
 cv::Mat1b ReadGreyImage(const std::string& path, const cv::Size& expected = {});
 
-// As ReadGreyImage, with the SHA-256 of the very bytes it decoded (the file is read once:
-// a file replaced while it is read cannot get another image's hash).
+// As ReadGreyImage, with the SHA-256 of the very bytes it checked and decoded (one read of
+// the whole file, after a peek at its header: a file replaced while it is read cannot
+// lend its hash to another image).
 struct HashedImage {
   cv::Mat1b image;
   std::string sha256;

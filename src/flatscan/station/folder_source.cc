@@ -46,6 +46,12 @@ bool SameFile(const fs::path& a, const fs::path& b) {
   return ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
 }
 
+// The file's inode number; 0 when there is no such file.
+ino_t InodeOf(const fs::path& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 ? st.st_ino : 0;
+}
+
 class FolderSource : public PairSource {
  public:
   FolderSource(fs::path dir, const FolderSourceOptions& options)
@@ -72,14 +78,13 @@ class FolderSource : public PairSource {
       const std::chrono::milliseconds timeout = std::min(wait, TimeToNextDeadline());
       lock.unlock();  // Done() may run while this waits
       pollfd p{fd_, POLLIN, 0};
-      ::poll(&p, 1, int(timeout.count()));
+      ::poll(&p, 1, int(std::clamp<int64_t>(timeout.count(), 0, 60'000)));
       lock.lock();
       Update();
     }
     if (ready_.empty()) return std::nullopt;
     SourcePair pair = std::move(ready_.front());
     ready_.pop_front();
-    in_flight_.insert(pair.source_id);
     return pair;
   }
 
@@ -88,21 +93,43 @@ class FolderSource : public PairSource {
 
   // Moves the pair's files to done/: hard links first (done/ then holds both), then the
   // originals removed, right before left; a restart recognises a file whose done/ copy
-  // is the same file as a move to finish.
+  // is the same file as a move to finish. Only the very files handed out are moved (the
+  // same inodes): a file delivered again under the id meanwhile stays, and counts now.
   void Done(const SourcePair& pair) override {
     const std::lock_guard lock(mutex_);
-    in_flight_.erase(pair.source_id);
-    const bool left = LinkIntoDone(pair.left), right = LinkIntoDone(pair.right);
-    if (right) ::unlink(pair.right.c_str());
-    if (left) ::unlink(pair.left.c_str());
+    const auto claimed = claimed_.find(pair.source_id);
+    if (claimed == claimed_.end()) return;
+    const Inodes inodes = claimed->second;
+    claimed_.erase(claimed);
+    MoveToDone(pair.source_id, inodes);
     RememberDone(pair.source_id);
+    const std::vector<std::string> deferred = std::move(deferred_[pair.source_id]);
+    deferred_.erase(pair.source_id);
+    for (const std::string& name : deferred) Complete(name);
   }
 
  private:
+  struct Inodes {
+    ino_t left = 0, right = 0;  // 0: no file on that side
+  };
   struct Pending {
-    bool left = false, right = false;
+    Inodes inodes;
     Clock::time_point first_seen;
   };
+
+  void MoveToDone(const std::string& id, const Inodes& inodes) {
+    const fs::path left = Path(id, Side::kLeft), right = Path(id, Side::kRight);
+    const bool move_left = inodes.left != 0 && InodeOf(left) == inodes.left && LinkIntoDone(left);
+    const bool move_right = inodes.right != 0 && InodeOf(right) == inodes.right && LinkIntoDone(right);
+    if (move_right) ::unlink(right.c_str());
+    if (move_left) ::unlink(left.c_str());
+  }
+
+  // A pair goes out: its files' inodes are what Done() will move.
+  void Hand(const std::string& id, const Inodes& inodes, std::optional<std::string> not_measurable) {
+    claimed_[id] = inodes;
+    ready_.push_back(SourcePair{id, Path(id, Side::kLeft), Path(id, Side::kRight), std::move(not_measurable)});
+  }
 
   fs::path Path(const std::string& id, Side side) const {
     return dir_ / (id + (side == Side::kLeft ? kLeftSuffix : kRightSuffix));
@@ -121,6 +148,7 @@ class FolderSource : public PairSource {
           spdlog::warn("{}: more files arrived than inotify could queue; rescanning the folder", Name());
           Scan(false);
         } else if (e->len > 0) {
+          unsettled_.erase(e->name);  // closed or renamed in: complete now
           Complete(e->name);
         }
         at += ssize_t(sizeof(inotify_event) + e->len);
@@ -141,7 +169,7 @@ class FolderSource : public PairSource {
     }
     for (auto it = pending_.begin(); it != pending_.end();) {
       if (now - it->second.first_seen >= options_.half_pair_timeout) {
-        ready_.push_back(HalfPair(it->first, it->second));
+        Hand(it->first, it->second.inodes, HalfPairReason(it->first, it->second.inodes));
         it = pending_.erase(it);
       } else {
         ++it;
@@ -149,49 +177,68 @@ class FolderSource : public PairSource {
     }
   }
 
-  SourcePair HalfPair(const std::string& id, const Pending& p) const {
-    const Side present = p.left ? Side::kLeft : Side::kRight, missing = p.left ? Side::kRight : Side::kLeft;
-    const std::string reason =
-        fmt::format("half pair: the {} image {} did not arrive within {:.1f} s of the {} image {}",
-                    missing == Side::kLeft ? "left" : "right", Path(id, missing).string(),
-                    std::chrono::duration<double>(options_.half_pair_timeout).count(),
-                    present == Side::kLeft ? "left" : "right", Path(id, present).string());
-    return SourcePair{id, Path(id, Side::kLeft), Path(id, Side::kRight), reason};
+  std::string HalfPairReason(const std::string& id, const Inodes& inodes) const {
+    const Side present = inodes.left ? Side::kLeft : Side::kRight, missing = inodes.left ? Side::kRight : Side::kLeft;
+    return fmt::format("half pair: the {} image {} did not arrive within {:.1f} s of the {} image {}",
+                       missing == Side::kLeft ? "left" : "right", Path(id, missing).string(),
+                       std::chrono::duration<double>(options_.half_pair_timeout).count(),
+                       present == Side::kLeft ? "left" : "right", Path(id, present).string());
   }
 
-  // A file of the folder is complete.
+  // A file of the folder is complete (an event, a settled file, a rescan). The same file
+  // reported twice counts once; another file under the id of a pair that is out (queued
+  // or being measured) waits until that pair is done.
   void Complete(const std::string& name) {
     const auto parsed = ParseName(name);
-    if (!parsed || in_flight_.count(parsed->first)) return;
+    if (!parsed) return;
     const auto& [id, side] = *parsed;
+    const ino_t inode = InodeOf(dir_ / name);
+    if (inode == 0) return;  // gone since (moved to done/, deleted)
+    if (const auto out = claimed_.find(id); out != claimed_.end()) {
+      if ((side == Side::kLeft ? out->second.left : out->second.right) != inode) deferred_[id].push_back(name);
+      return;
+    }
     Pending& p = pending_[id];
-    if (!p.left && !p.right) p.first_seen = Clock::now();
-    (side == Side::kLeft ? p.left : p.right) = true;
-    if (p.left && p.right) {
-      ready_.push_back(SourcePair{id, Path(id, Side::kLeft), Path(id, Side::kRight), std::nullopt});
+    if (!p.inodes.left && !p.inodes.right) p.first_seen = Clock::now();
+    (side == Side::kLeft ? p.inodes.left : p.inodes.right) = inode;
+    if (p.inodes.left && p.inodes.right) {
+      Hand(id, p.inodes, std::nullopt);
       pending_.erase(id);
     }
   }
 
-  // The folder's files: at start-up, files not modified for `settle` count at once,
-  // newer ones when they settle (or close); a rescan after an overflow takes every file.
+  // The folder's files (at start-up, or again after an inotify overflow): files not
+  // modified for `settle` count at once, newer ones when they close or settle.
   void Scan(bool at_start) {
+    if (at_start) FinishInterruptedMoves();
     std::vector<std::pair<fs::file_time_type, std::string>> files;
     for (const auto& entry : fs::directory_iterator(dir_)) {
       const std::string name = entry.path().filename().string();
       if (!entry.is_regular_file() || !ParseName(name)) continue;
-      if (at_start && SameFile(entry.path(), done_ / name)) {  // a move that a kill interrupted
-        ::unlink(entry.path().c_str());
-        continue;
-      }
       std::error_code ec;
       files.emplace_back(fs::last_write_time(entry.path(), ec), name);
     }
     std::sort(files.begin(), files.end());  // oldest first: pairs in the order they came
     const auto now = fs::file_time_type::clock::now();
     for (const auto& [time, name] : files) {
-      if (at_start && now - time < options_.settle) unsettled_.insert(name);
+      if (now - time < options_.settle) unsettled_.insert(name);
       else Complete(name);
+    }
+  }
+
+  // A file in the folder that is the same file as its done/ copy belongs to a pair whose
+  // record was committed and whose move a kill interrupted: both its files go to done/
+  // (the partner may not have been linked yet).
+  void FinishInterruptedMoves() {
+    std::set<std::string> ids;
+    for (const auto& entry : fs::directory_iterator(dir_)) {
+      const std::string name = entry.path().filename().string();
+      const auto parsed = ParseName(name);
+      if (parsed && entry.is_regular_file() && SameFile(entry.path(), done_ / name)) ids.insert(parsed->first);
+    }
+    for (const std::string& id : ids) {
+      spdlog::info("{}: finishing the move of pair {} to done/ (interrupted)", Name(), id);
+      MoveToDone(id, {InodeOf(Path(id, Side::kLeft)), InodeOf(Path(id, Side::kRight))});
     }
   }
 
@@ -261,7 +308,8 @@ class FolderSource : public PairSource {
   std::mutex mutex_;  // Next() and Done() run on different threads
   std::map<std::string, Pending> pending_;
   std::set<std::string> unsettled_;
-  std::set<std::string> in_flight_;
+  std::map<std::string, Inodes> claimed_;  // pairs out (queued or being measured): their files
+  std::map<std::string, std::vector<std::string>> deferred_;  // files that came for a pair that is out
   std::deque<SourcePair> ready_;
   std::deque<std::string> done_order_;
 };

@@ -129,6 +129,45 @@ TEST(FolderSource, ARestartFinishesAnInterruptedMove) {
   EXPECT_FALSE(NextWithin(*source, milliseconds(600)));  // no half pair after its timeout either
 }
 
+// kill -9 after the left image was linked into done/ and before the right one was: the
+// record was committed, so the restart moves both instead of making the right image a
+// half pair (a second record).
+TEST(FolderSource, ARestartFinishesAMoveInterruptedBetweenTheTwoLinks) {
+  testing::ScratchDir dir("folder-restart-2");
+  const fs::path d = dir.path();
+  fs::create_directories(d / "done");
+  WriteFile(d / "y_left.png", "L");
+  WriteFile(d / "y_right.png", "R");
+  ASSERT_EQ(::link((d / "y_left.png").c_str(), (d / "done/y_left.png").c_str()), 0);
+  auto source = MakeFolderSource(d, Fast());
+  EXPECT_FALSE(fs::exists(d / "y_left.png"));
+  EXPECT_FALSE(fs::exists(d / "y_right.png"));
+  EXPECT_EQ(testing::ReadFileBytes(d / "done/y_right.png"), "R");
+  EXPECT_FALSE(NextWithin(*source, milliseconds(600)));
+}
+
+// The partner of a half pair arrives while the half pair is being recorded: it is not
+// moved away with it, and becomes a half pair of its own.
+TEST(FolderSource, AFileThatArrivesForAPairThatIsOutWaitsForIt) {
+  testing::ScratchDir dir("folder-late");
+  const fs::path d = dir.path();
+  auto source = MakeFolderSource(d, Fast());
+  Deliver(d / "z_left.png", "L");
+  const auto half = NextWithin(*source, milliseconds(3000));
+  ASSERT_TRUE(half && half->not_measurable);
+  Deliver(d / "z_right.png", "late R");
+  EXPECT_FALSE(source->Next(milliseconds(100)));  // it waits for the half pair
+  source->Done(*half);
+  EXPECT_TRUE(fs::exists(d / "done/z_left.png"));
+  EXPECT_EQ(testing::ReadFileBytes(d / "z_right.png"), "late R");  // not moved with the half pair
+  const auto late = NextWithin(*source, milliseconds(3000));
+  ASSERT_TRUE(late && late->not_measurable);
+  EXPECT_NE(late->not_measurable->find("the left image " + (d / "z_left.png").string() + " did not arrive"),
+            std::string::npos);
+  source->Done(*late);
+  EXPECT_EQ(testing::ReadFileBytes(d / "done/z_right.png"), "late R");
+}
+
 TEST(FolderSource, RefusesAFolderThatIsNotThere) {
   EXPECT_EQ(testing::InputErrorOf([] { MakeFolderSource("/nonexistent/incoming"); }),
             "--source folder:/nonexistent/incoming: no such folder");

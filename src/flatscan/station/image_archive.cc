@@ -1,7 +1,5 @@
 #include "flatscan/station/image_archive.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -32,12 +30,11 @@ std::string SafeName(const std::string& id) {
   return out;
 }
 
-// `target` becomes `source`'s bytes: a hard link where possible, else a copy.
-void LinkOrCopy(const fs::path& source, const fs::path& target) {
-  fs::remove(target);
-  if (::link(source.c_str(), target.c_str()) == 0) return;
+// `target` becomes a copy of `source` (a copy, not a hard link: a source rewritten in place
+// later must not change the archived image its record's SHA-256 describes).
+void Copy(const fs::path& source, const fs::path& target) {
   std::error_code ec;
-  fs::copy_file(source, target, ec);
+  fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
   if (ec) ThrowInputError("archive: cannot write {} ({})", target.string(), ec.message());
 }
 
@@ -98,14 +95,19 @@ ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& p
   const std::string stem = SafeName(record.source_id) + "_" + record.record_id.substr(0, 8);
   Entry entry{kind, fs::file_time_type::clock::now(), {}, 0};
   ArchivedPair out;
-  for (const auto& [source, name, target] : {std::tuple{pair.left, "_left.png", &out.left},
-                                             std::tuple{pair.right, "_right.png", &out.right}}) {
-    if (!fs::is_regular_file(source)) continue;  // the missing half of a pair
-    const fs::path file = folder / (stem + name);
-    LinkOrCopy(source, file);
-    *target = file.string();
-    entry.files.push_back(file);
-    entry.bytes += int64_t(fs::file_size(file));
+  try {
+    for (const auto& [source, name, target] : {std::tuple{pair.left, "_left.png", &out.left},
+                                               std::tuple{pair.right, "_right.png", &out.right}}) {
+      if (!fs::is_regular_file(source)) continue;  // the missing half of a pair
+      const fs::path file = folder / (stem + name);
+      entry.files.push_back(file);
+      Copy(source, file);
+      *target = file.string();
+      entry.bytes += int64_t(fs::file_size(file));
+    }
+  } catch (...) {  // no half-archived pair left behind
+    for (const fs::path& f : entry.files) fs::remove(f, ec);
+    throw;
   }
   if (entry.files.empty()) return {};
   bytes_ += entry.bytes;
@@ -119,8 +121,9 @@ void ImageArchive::ApplyQuota() {
   const auto evictable = [&](const Entry& e, bool pass_only) {
     return pass_only ? e.kind == "pass" : e.kind != "pass" && now - e.time > retention_;
   };
+  // The pair just kept (the last entry) is never evicted: its record names it.
   for (const bool pass_only : {true, false}) {
-    for (auto it = entries_.begin(); bytes_ > quota_bytes_ && it != entries_.end();) {
+    for (auto it = entries_.begin(); bytes_ > quota_bytes_ && it + 1 < entries_.end();) {
       if (!evictable(*it, pass_only)) {
         ++it;
         continue;

@@ -6,15 +6,14 @@
 // `keep_pass_every` (the first, then every N-th pass this station run records).
 // Layout: DIR/<pass|fail|not_measured>/<YYYY-MM-DD>/<source id>_<record id's first 8
 // hex digits>_<left|right>.png (the day is the record's UTC day; characters of the source
-// id outside [A-Za-z0-9._-] become '_'). A kept image is a hard link to the pair's file
-// when both are on one file system (no copy, no extra disk until the original goes),
-// else a copy. The record names the two files (`archive`: {left, right}); its
-// left_sha256/right_sha256 are their bytes' hashes.
+// id outside [A-Za-z0-9._-] become '_'). A kept image is a copy (not a hard link: a
+// source rewritten in place must not change it). The record names the two files
+// (`archive`: {left, right}); its left_sha256/right_sha256 are their bytes' hashes.
 //
 // Quota: once the archive's files exceed `quota_mb`, the oldest "pass" pairs are removed
 // first, then "fail" and "not measured" pairs older than `fail_retention_days`, oldest
-// first; a fail within its retention period is never removed (the archive then stays over
-// its quota, with a warning). Age is the image file's modification time. With several
+// first; a fail within its retention period is never removed, nor is the pair just kept
+// (the archive then stays over its quota, with a warning). Age is the image file's modification time. With several
 // recipes, the quota and the retention are the largest any of them asks for, and
 // keep_pass_every is that of the record's recipe.
 #include <chrono>

@@ -170,8 +170,9 @@ StationCounts InspectionStation::Run(const std::atomic<bool>& stop) {
     Notify("publishing the failure", [&](RecordPublisher& p) { p.Failed(counts_, e.what()); });
     throw;
   }
-  spdlog::info("station {}: stopped; {} records committed ({} pass, {} fail, {} not measured), {} already recorded",
-               options_.station_id, counts_.committed, counts_.pass, counts_.fail, counts_.not_measured,
+  spdlog::info("station {}: stopped; {} pairs taken, {} records committed ({} pass, {} fail, {} not measured), {} "
+               "already recorded",
+               options_.station_id, counts_.taken, counts_.committed, counts_.pass, counts_.fail, counts_.not_measured,
                counts_.already_recorded);
   Notify("publishing the stop", [&](RecordPublisher& p) { p.Stopped(counts_); });
   return counts_;
@@ -192,6 +193,7 @@ void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
     while (!stop && !failed) {
       if (auto pair = source_.Next(kPollWait)) {
         ++in_flight;
+        ++counts_.taken;
         return {std::move(*pair), active_.load()};
       }
       if (options_.until_idle_s && in_flight == 0 && idle_for() >= *options_.until_idle_s) break;
@@ -200,7 +202,12 @@ void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
     return {};
   };
   const auto measure = [&](const Item& item) {
-    return Measured{MeasureSourcePair(recipes_[item.second], item.first, options_), item.first, item.second};
+    try {
+      return Measured{MeasureSourcePair(recipes_[item.second], item.first, options_), item.first, item.second};
+    } catch (...) {  // MeasureSourcePair turns a pair's problems into records; this is the station's
+      failed = true;
+      throw;
+    }
   };
   const auto deliver = [&](Measured measured) {
     try {

@@ -36,6 +36,7 @@ struct StationOptions {
 };
 
 struct StationCounts {
+  int64_t taken = 0;  // pairs taken from the source (the input stage's count; the others are the output stage's)
   int64_t committed = 0, pass = 0, fail = 0, not_measured = 0;
   int64_t already_recorded = 0;  // pairs skipped: the store had them (a restart)
 };
