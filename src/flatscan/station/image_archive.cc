@@ -1,7 +1,6 @@
 #include "flatscan/station/image_archive.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <map>
@@ -10,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "flatscan/io/output_files.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -20,14 +20,6 @@ namespace fs = std::filesystem;
 std::string Kind(const InspectionRecord& r) {
   if (!r.measured) return "not_measured";
   return r.judgement.pass() ? "pass" : "fail";
-}
-
-std::string SafeName(const std::string& id) {
-  std::string out = id.empty() ? "pair" : id;
-  for (char& c : out)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-') c = '_';
-  if (out.front() == '.') out.front() = '_';
-  return out;
 }
 
 // `target` becomes a copy of `source` (a copy, not a hard link: a source rewritten in place
@@ -92,7 +84,7 @@ ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& p
   std::error_code ec;
   fs::create_directories(folder, ec);
   if (ec) ThrowInputError("archive: cannot create {} ({})", folder.string(), ec.message());
-  const std::string stem = SafeName(record.source_id) + "_" + record.record_id.substr(0, 8);
+  const std::string stem = SafeFileName(record.source_id) + "_" + record.record_id.substr(0, 8);
   Entry entry{kind, fs::file_time_type::clock::now(), {}, 0};
   ArchivedPair out;
   try {

@@ -5,8 +5,8 @@
 // What is kept: every "fail" and every "not measured" pair, and one "pass" pair in
 // `keep_pass_every` (the first, then every N-th pass this station run records).
 // Layout: DIR/<pass|fail|not_measured>/<YYYY-MM-DD>/<source id>_<record id's first 8
-// hex digits>_<left|right>.png (the day is the record's UTC day; characters of the source
-// id outside [A-Za-z0-9._-] become '_'). A kept image is a copy (not a hard link: a
+// hex digits>_<left|right>.png (the day is the record's UTC day; the source id made a safe
+// file name by io/output_files.h's SafeFileName). A kept image is a copy (not a hard link: a
 // source rewritten in place must not change it). The record names the two files
 // (`archive`: {left, right}); its left_sha256/right_sha256 are their bytes' hashes.
 //
