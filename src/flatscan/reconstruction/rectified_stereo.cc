@@ -98,17 +98,20 @@ BottomPoint TriangulateBottomPoint(const RectifiedStereo& s, double u_left, doub
   if (!(naive.z() > 0) || !naive.allFinite()) return out;
   const Eigen::Vector3d dl = s.LeftRay(u_left, row);  // naive = z dl (dl.z = 1)
   Eigen::Vector3d bottom = naive;
+  // The rim's outward normal across the side face: the image tangent and normal lifted
+  // onto the plane across the face (normal `side`). Lifting onto that plane through a
+  // point X scales every lifted point by side . X, so the directions do not depend on
+  // which point: they are taken once, through the naive point (side . X keeps its sign
+  // while the point moves by micrometres).
+  const double eps = 0.5;
+  const Eigen::Vector2d tangent_2d(-normal_left.y(), normal_left.x());
+  const Eigen::Vector3d p0 = LiftToPlane(s, u_left, row, naive, side);
+  Eigen::Vector3d tangent = LiftToPlane(s, u_left + eps * tangent_2d.x(), row + eps * tangent_2d.y(), naive, side) - p0;
+  Eigen::Vector3d outward = LiftToPlane(s, u_left + eps * normal_left.x(), row + eps * normal_left.y(), naive, side) - p0;
+  tangent.normalize();
+  outward = (outward - outward.dot(tangent) * tangent).normalized();
   std::optional<SilhouetteEdge> left_edge, right_edge;  // none before the first pass
   for (int pass = 0; pass < 3; ++pass) {
-    // The rim's outward normal across the side face: the image tangent and normal
-    // lifted onto the plane across the face through the current point.
-    const double eps = 0.5;
-    const Eigen::Vector2d tangent_2d(-normal_left.y(), normal_left.x());
-    const Eigen::Vector3d p0 = LiftToPlane(s, u_left, row, bottom, side);
-    Eigen::Vector3d tangent = LiftToPlane(s, u_left + eps * tangent_2d.x(), row + eps * tangent_2d.y(), bottom, side) - p0;
-    Eigen::Vector3d outward = LiftToPlane(s, u_left + eps * normal_left.x(), row + eps * normal_left.y(), bottom, side) - p0;
-    tangent.normalize();
-    outward = (outward - outward.dot(tangent) * tangent).normalized();
     const EdgeSeen l = Seen(Eigen::Vector3d::Zero(), bottom, outward, side, thickness);
     const EdgeSeen r = Seen(s.RightCentre(), bottom, outward, side, thickness);
     out.facing_left = l.facing;
