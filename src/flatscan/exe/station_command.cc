@@ -5,9 +5,11 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <spdlog/pattern_formatter.h>
@@ -17,6 +19,7 @@
 #include "flatscan/exe/cli.h"
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/number_checks.h"
+#include "flatscan/outputs/mqtt_publisher.h"
 #include "flatscan/station/pair_source.h"
 #include "flatscan/station/recipe.h"
 #include "flatscan/store/results_store.h"
@@ -81,6 +84,12 @@ class StationCommand : public Command {
                      "exit 0 once this many seconds passed since the last record with nothing in flight")
         ->check(RealIn(0, 1e6));
     sub_->add_option("--log", log_, "rotating log file (default: the store's name with .log)");
+    sub_->add_option("--mqtt", mqtt_, "MQTT broker HOST:PORT: each record on flatscan/<station>/result (QoS 1), the "
+                                      "state retained on flatscan/<station>/state (docs/line-outputs.md)");
+    sub_->add_option("--mqtt-user", mqtt_user_, "MQTT user name");
+    sub_->add_option("--mqtt-password-file", mqtt_password_file_,
+                     "file whose first line is the MQTT password (never on the command line, never logged)");
+    sub_->add_option("--mqtt-tls-ca", mqtt_tls_ca_, "CA certificate (PEM) of the broker: TLS to the broker");
     sub_->add_option("--status", status_, "status file (JSON, rewritten after every record; default: the store's "
                                           "name with .status.json)");
   }
@@ -111,6 +120,8 @@ class StationCommand : public Command {
                       recipes.front().recipe.name);
     InspectionStation station(std::move(recipes), *source, *store, options);
     station.AddPublisher(&status);
+    const std::unique_ptr<MqttPublisher> mqtt = MakeMqtt(*store);
+    if (mqtt) station.AddPublisher(mqtt.get());
     station.SetArchive(archive.get());
     try {
       station.Run(StopGracefullyOnSignal());
@@ -132,6 +143,32 @@ class StationCommand : public Command {
     return std::make_unique<ImageArchive>(archive_, quota_mb, retention_days);
   }
 
+  std::unique_ptr<MqttPublisher> MakeMqtt(ResultsStore& store) const {
+    if (mqtt_.empty()) {
+      if (!mqtt_user_.empty() || !mqtt_password_file_.empty() || !mqtt_tls_ca_.empty())
+        ThrowInputError("--mqtt-user, --mqtt-password-file and --mqtt-tls-ca need --mqtt HOST:PORT");
+      return nullptr;
+    }
+    MqttOptions o;
+    std::tie(o.host, o.port) = ParseHostPort(mqtt_, "--mqtt");
+    o.station_id = station_id_;
+    o.username = mqtt_user_;
+    if (!mqtt_password_file_.empty()) o.password = FirstLine(mqtt_password_file_, "--mqtt-password-file");
+    o.tls_ca_file = mqtt_tls_ca_;
+    o.cursor_file = Beside(store_, ".mqtt.json");
+    return std::make_unique<MqttPublisher>(std::move(o), store);
+  }
+
+  // The first line of a secret's file, without its line end.
+  static std::string FirstLine(const std::string& file, const char* option) {
+    std::ifstream in(file);
+    std::string line;
+    if (!in || !std::getline(in, line) || line.empty())
+      ThrowInputError("{} '{}': expected a readable file whose first line is the password", option, file);
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return line;
+  }
+
   static void LogToFile(const std::string& file) {
     try {
       auto sink = std::make_shared<spdlog::sinks::rotating_file_sink_mt>(file, kLogFileBytes, kLogFiles);
@@ -150,6 +187,7 @@ class StationCommand : public Command {
 
   std::vector<std::string> recipes_;
   std::string source_, store_, station_id_, log_, status_, archive_;
+  std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_;
   std::optional<double> until_idle_s_;
   double half_pair_timeout_s_ = 10;
   int keep_done_ = 1000;

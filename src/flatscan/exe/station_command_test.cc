@@ -16,6 +16,7 @@
 #include <sqlite3.h>
 #include <nlohmann/json.hpp>
 
+#include "flatscan/outputs/mqtt_test_util.h"
 #include "flatscan/util/sha256.h"
 #include "flatscan/util/test_util.h"
 
@@ -348,6 +349,50 @@ TEST_F(StationCommand, KillNineLosesNothingAndRecordsNothingTwice) {
   EXPECT_EQ(ids.size(), size_t(kPairs));
   for (const auto& entry : fs::directory_iterator(in))
     EXPECT_FALSE(entry.is_regular_file()) << entry.path() << " was left in the folder";
+}
+
+}  // namespace
+}  // namespace flatscan
+
+namespace flatscan {
+namespace {
+
+// --mqtt: every record of a station run reaches a subscriber of a real broker, the
+// retained state ends "stopped", and the password is in no log, record or status file.
+TEST_F(StationCommand, PublishesEveryRecordToMqtt) {
+  const int port = testing::FreeLoopbackPort();
+  const fs::path broker_dir = Dir() / "broker";
+  fs::create_directories(broker_dir);
+  testing::Broker broker(broker_dir, port);
+  ASSERT_TRUE(broker.Start());
+  testing::Subscriber subscriber(port, "test-1");
+  ASSERT_TRUE(testing::WaitFor([&] { return subscriber.Subscribed(); }, 10));
+  std::ofstream(Dir() / "mqtt.password") << "s3cret-pw\n";
+  const auto run = Station("all.csv", "mqtt.db",
+                           fmt::format("--mqtt 127.0.0.1:{} --mqtt-user line --mqtt-password-file {}", port,
+                                       (Dir() / "mqtt.password").string()));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  ASSERT_TRUE(testing::WaitFor([&] { return subscriber.Sequences().size() >= 5; }, 10));
+  EXPECT_EQ(subscriber.Sequences(), (std::vector<int64_t>{1, 2, 3, 4, 5}));
+  ASSERT_TRUE(testing::WaitFor([&] { return !subscriber.States().empty() && subscriber.States().back() == "stopped"; }, 10));
+  EXPECT_EQ(json::parse(testing::ReadFileBytes(Dir() / "mqtt.mqtt.json"))["acked_through"], 5);
+  for (const char* file : {"mqtt.db", "mqtt.db-wal", "mqtt.log", "mqtt.status.json", "mqtt.mqtt.json"}) {
+    if (fs::exists(Dir() / file)) {
+      EXPECT_EQ(testing::ReadFileBytes(Dir() / file).find("s3cret-pw"), std::string::npos) << file;
+    }
+  }
+  EXPECT_EQ(run.err.find("s3cret-pw"), std::string::npos);
+
+  const auto bad = Station("good.csv", "mqtt-bad.db", "--mqtt localhost");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--mqtt 'localhost': expected HOST:PORT (a host name or address, a port 1-65535)"),
+            std::string::npos)
+      << bad.err;
+  const auto lone = Station("good.csv", "mqtt-bad.db", "--mqtt-user line");
+  EXPECT_EQ(lone.exit_code, 2);
+  EXPECT_NE(lone.err.find("--mqtt-user, --mqtt-password-file and --mqtt-tls-ca need --mqtt HOST:PORT"),
+            std::string::npos)
+      << lone.err;
 }
 
 }  // namespace

@@ -3,6 +3,9 @@
 #include <signal.h>
 #include <fcntl.h>
 #include <spawn.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -73,8 +76,9 @@ std::string Binary() {
 }
 }  // namespace
 
-BackgroundFlatscan::BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log) {
-  std::vector<std::string> argv_text = {Binary()};
+BackgroundProcess::BackgroundProcess(const std::string& program, const std::vector<std::string>& args,
+                                     const std::filesystem::path& log) {
+  std::vector<std::string> argv_text = {program};
   argv_text.insert(argv_text.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (std::string& a : argv_text) argv.push_back(a.data());
@@ -85,28 +89,62 @@ BackgroundFlatscan::BackgroundFlatscan(const std::vector<std::string>& args, con
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   pid_t pid = 0;
-  if (posix_spawn(&pid, argv_text[0].c_str(), &actions, nullptr, argv.data(), environ) == 0) pid_ = pid;
+  if (posix_spawnp(&pid, argv_text[0].c_str(), &actions, nullptr, argv.data(), environ) == 0) pid_ = pid;
   posix_spawn_file_actions_destroy(&actions);
 }
 
-BackgroundFlatscan::~BackgroundFlatscan() {
+BackgroundProcess::~BackgroundProcess() {
   if (pid_ <= 0) return;
   ::kill(pid_, SIGKILL);
   int status = 0;
   ::waitpid(pid_, &status, 0);
 }
 
-void BackgroundFlatscan::Signal(int signal) const {
+void BackgroundProcess::Signal(int signal) const {
   if (pid_ > 0) ::kill(pid_, signal);
 }
 
-int BackgroundFlatscan::Wait(double timeout_s) {
+int BackgroundProcess::Wait(double timeout_s) {
   if (pid_ <= 0) return -1;
   int status = 0;
   const bool ended = WaitFor([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; }, timeout_s);
   if (!ended) return -1;  // the destructor kills it
   pid_ = -1;
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+BackgroundFlatscan::BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log)
+    : BackgroundProcess(Binary(), args, log) {}
+
+namespace {
+sockaddr_in Loopback(int port) {
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  return a;
+}
+}  // namespace
+
+int FreeLoopbackPort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a = Loopback(0);
+  socklen_t size = sizeof(a);
+  int port = -1;
+  if (fd >= 0 && ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) == 0 &&
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &size) == 0)
+    port = ntohs(a.sin_port);
+  if (fd >= 0) ::close(fd);
+  return port;
+}
+
+bool LoopbackPortAccepts(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return false;
+  const sockaddr_in a = Loopback(port);
+  const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&a), sizeof(a)) == 0;
+  ::close(fd);
+  return ok;
 }
 
 bool WaitFor(const std::function<bool()>& condition, double timeout_s) {

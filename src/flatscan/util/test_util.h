@@ -29,15 +29,16 @@ struct CommandResult {
 // test instead of stalling it.
 CommandResult RunFlatscan(const std::string& args, int timeout_s = 0);
 
-// A flatscan process in the background (a station): started with `args` (one per
-// element), standard output and error to `log`. Destroying it while it runs kills it
-// (SIGKILL) and reaps it, so that a failed test leaves no process behind.
-class BackgroundFlatscan {
+// A process in the background (a station, a broker): `program` started with `args`
+// (one per element), standard output and error to `log`. Destroying it while it runs
+// kills it (SIGKILL) and reaps it, so that a failed test leaves no process behind.
+class BackgroundProcess {
  public:
-  BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log);
-  ~BackgroundFlatscan();
-  BackgroundFlatscan(const BackgroundFlatscan&) = delete;
-  BackgroundFlatscan& operator=(const BackgroundFlatscan&) = delete;
+  BackgroundProcess(const std::string& program, const std::vector<std::string>& args,
+                    const std::filesystem::path& log);
+  ~BackgroundProcess();
+  BackgroundProcess(const BackgroundProcess&) = delete;
+  BackgroundProcess& operator=(const BackgroundProcess&) = delete;
   bool started() const { return pid_ > 0; }
   void Signal(int signal) const;
   // Waits at most `timeout_s` for the process to end: its exit code, 128 + the signal
@@ -47,6 +48,17 @@ class BackgroundFlatscan {
  private:
   int pid_ = -1;
 };
+
+// The flatscan binary in the background.
+class BackgroundFlatscan : public BackgroundProcess {
+ public:
+  BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log);
+};
+
+// A TCP port on 127.0.0.1 that was free a moment ago (bound to port 0, then released).
+int FreeLoopbackPort();
+// Whether something accepts TCP connections on 127.0.0.1:`port`.
+bool LoopbackPortAccepts(int port);
 
 // Polls `condition` every 20 ms until it holds or `timeout_s` passes; whether it held.
 bool WaitFor(const std::function<bool()>& condition, double timeout_s);

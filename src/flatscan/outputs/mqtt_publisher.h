@@ -1,0 +1,94 @@
+#pragma once
+// The MQTT line output (docs/line-outputs.md): each committed record as JSON (the
+// store's keys, station_record.h) on flatscan/<station>/result with QoS 1, and the
+// station's state retained on flatscan/<station>/state.
+//
+// Delivery is at least once: a record stays in the publisher's outbox until the broker
+// acknowledges it (PUBACK), and everything still in the outbox is sent again, in
+// sequence order, each time the connection is made again. A subscriber therefore sees
+// every record, first occurrences in sequence order, and may see one again after an
+// outage: it de-duplicates on station_id + sequence. The results store is the outbox
+// across restarts: the last sequence number acknowledged by the broker is kept in a
+// small cursor file beside the store, and a station that starts again sends the
+// records after it first (a cursor a crash left behind only repeats records).
+//
+// State payloads (plain text, retained): "ready" while the station runs, "stopped"
+// after a clean stop, "error" when it stopped because it could not record, and
+// "offline" (the last will, sent by the broker) when the connection was lost.
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <string>
+
+#include "flatscan/station/inspection_station.h"
+#include "flatscan/store/results_store.h"
+
+struct mosquitto;
+
+namespace flatscan {
+
+struct MqttOptions {
+  std::string host = "127.0.0.1";
+  int port = 1883;
+  std::string station_id;              // topics are flatscan/<station_id>/...
+  std::string username, password;      // empty: anonymous; the password is never logged
+  std::string tls_ca_file;             // a CA certificate (PEM): TLS to the broker; empty: plain TCP
+  std::filesystem::path cursor_file;   // last acknowledged sequence; empty: none (no catch-up)
+  int keepalive_s = 10;                // the broker declares the station offline after 1.5 times this
+};
+
+// "HOST:PORT" (PORT 1-65535; HOST a name, an IPv4 address or [IPv6]) as host and port;
+// throws InputError naming `option` and what was expected.
+std::pair<std::string, int> ParseHostPort(const std::string& spec, const std::string& option);
+
+class MqttPublisher : public RecordPublisher {
+ public:
+  // Connects in the background (and again after every outage, every 1-5 s); does not
+  // wait for the broker. With a cursor file, the records of `store` after the cursor's
+  // sequence are put in the outbox first; without one the cursor starts at the store's
+  // last sequence (history is not replayed into a broker that never had it). Throws
+  // InputError for options libmosquitto refuses (a TLS file that cannot be read).
+  MqttPublisher(MqttOptions options, ResultsStore& store);
+  ~MqttPublisher() override;
+  MqttPublisher(const MqttPublisher&) = delete;
+  MqttPublisher& operator=(const MqttPublisher&) = delete;
+
+  void Publish(const StationRecord& record, const StationCounts& counts) override;
+  void Stopped(const StationCounts& counts) override;
+  void Failed(const StationCounts& counts, const std::string& reason) override;
+
+  // Waits until the broker has acknowledged every record given so far, at most
+  // `timeout`; whether it did.
+  bool Drain(std::chrono::milliseconds timeout);
+  size_t Outstanding() const;
+
+ private:
+  static void OnConnect(mosquitto* client, void* self, int rc);
+  static void OnDisconnect(mosquitto* client, void* self, int rc);
+  static void OnPublish(mosquitto* client, void* self, int mid);
+  static void OnLog(mosquitto* client, void* self, int level, const char* text);
+  void SendLocked(int64_t sequence);
+  void PublishState(const char* state);
+  void AdvanceCursorLocked();
+  void SaveCursor() const;
+  void EndSession(const char* state);
+
+  MqttOptions options_;
+  std::string result_topic_, state_topic_;
+  mosquitto* client_ = nullptr;
+  mutable std::mutex mutex_;
+  std::condition_variable drained_;
+  bool connected_ = false;
+  std::string state_ = "ready";
+  std::map<int64_t, std::string> outbox_;  // sequence -> payload, not yet acknowledged
+  std::map<int, int64_t> in_flight_;       // message id -> sequence, this connection
+  int64_t last_given_ = 0;                 // the newest sequence put in the outbox
+  int64_t cursor_ = 0;                     // every sequence <= cursor_ is acknowledged
+  std::mutex log_mutex_;
+  std::string last_log_;                   // libmosquitto's last error, logged once
+};
+
+}  // namespace flatscan

@@ -1,0 +1,101 @@
+#include "flatscan/outputs/mqtt_test_util.h"
+
+#include <mosquitto.h>
+#include <signal.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+namespace flatscan::testing {
+namespace fs = std::filesystem;
+
+Broker::Broker(const fs::path& dir, int port) : dir_(dir), port_(port) {
+  std::ofstream(dir / "mosquitto.conf") << "listener " << port << " 127.0.0.1\n"
+                                        << "allow_anonymous true\n"
+                                        << "persistence true\n"
+                                        << "persistence_location " << dir.string() << "/\n"
+                                        << "autosave_interval 1\n"
+                                        << "user root\n";  // tests run as root: no switch to user 'mosquitto'
+}
+
+fs::path Broker::UseSelfSignedTls() {
+  const fs::path cert = dir_ / "broker-cert.pem", key = dir_ / "broker-key.pem";
+  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 "
+                              "-addext subjectAltName=IP:127.0.0.1 -keyout " +
+                              key.string() + " -out " + cert.string() + " > " + (dir_ / "openssl.log").string() +
+                              " 2>&1";
+  if (std::system(command.c_str()) != 0) return {};
+  std::ofstream(dir_ / "mosquitto.conf", std::ios::app) << "certfile " << cert.string() << "\n"
+                                                         << "keyfile " << key.string() << "\n";
+  return cert;
+}
+
+bool Broker::Start() {
+  process_ = std::make_unique<BackgroundProcess>(
+      "mosquitto", std::vector<std::string>{"-c", (dir_ / "mosquitto.conf").string()}, dir_ / "mosquitto.log");
+  return process_->started() && WaitFor([&] { return LoopbackPortAccepts(port_); }, 10);
+}
+
+bool Broker::Stop() { return Signal(SIGTERM); }
+bool Broker::Kill() { return Signal(SIGKILL); }
+
+bool Broker::Signal(int signal) {
+  if (!process_) return false;
+  process_->Signal(signal);
+  const int code = process_->Wait(10);
+  process_.reset();
+  return code == 0 || code == 128 + signal;
+}
+
+Subscriber::Subscriber(int port, const std::string& station) : station_(station) {
+  mosquitto_lib_init();
+  client_ = mosquitto_new(("flatscan-test-subscriber-" + station).c_str(), false, this);
+  mosquitto_connect_callback_set(client_, [](mosquitto* c, void* self, int rc) {
+    if (rc == 0)
+      mosquitto_subscribe(c, nullptr, ("flatscan/" + static_cast<Subscriber*>(self)->station_ + "/#").c_str(), 1);
+  });
+  mosquitto_subscribe_callback_set(client_, [](mosquitto*, void* self, int, int, const int*) {
+    static_cast<Subscriber*>(self)->subscribed_ = true;
+  });
+  mosquitto_message_callback_set(client_, [](mosquitto*, void* self_ptr, const mosquitto_message* m) {
+    auto* self = static_cast<Subscriber*>(self_ptr);
+    const std::string payload(static_cast<const char*>(m->payload), m->payloadlen);
+    std::lock_guard lock(self->mutex_);
+    if (std::string(m->topic).ends_with("/state"))
+      self->states_.push_back(payload);
+    else
+      self->sequences_.push_back(nlohmann::json::parse(payload).at("sequence").get<int64_t>());
+  });
+  mosquitto_reconnect_delay_set(client_, 1, 2, false);
+  mosquitto_connect_async(client_, "127.0.0.1", port, 10);
+  mosquitto_loop_start(client_);
+}
+
+Subscriber::~Subscriber() {
+  mosquitto_disconnect(client_);
+  mosquitto_loop_stop(client_, false);
+  mosquitto_destroy(client_);
+}
+
+std::vector<int64_t> Subscriber::Sequences() {
+  std::lock_guard lock(mutex_);
+  return sequences_;
+}
+
+std::vector<std::string> Subscriber::States() {
+  std::lock_guard lock(mutex_);
+  return states_;
+}
+
+std::vector<int64_t> Subscriber::FirstArrivals() {
+  std::vector<int64_t> first;
+  std::set<int64_t> seen;
+  for (int64_t s : Sequences())
+    if (seen.insert(s).second) first.push_back(s);
+  return first;
+}
+
+}  // namespace flatscan::testing
