@@ -3,6 +3,7 @@
 #include <mosquitto.h>
 #include <signal.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <set>
@@ -66,8 +67,12 @@ Subscriber::Subscriber(int port, const std::string& station) : station_(station)
     std::lock_guard lock(self->mutex_);
     if (std::string(m->topic).ends_with("/state"))
       self->states_.push_back(payload);
-    else
-      self->sequences_.push_back(nlohmann::json::parse(payload).at("sequence").get<int64_t>());
+    else {  // -1: a payload that is not a record (an exception must not leave this C callback)
+      const nlohmann::json j = nlohmann::json::parse(payload, nullptr, false);
+      const auto sequence = j.is_object() ? j.find("sequence") : j.end();
+      self->sequences_.push_back(sequence != j.end() && sequence->is_number_integer() ? sequence->get<int64_t>() : -1);
+    }
+    self->arrived_.notify_all();
   });
   mosquitto_reconnect_delay_set(client_, 1, 2, false);
   mosquitto_connect_async(client_, "127.0.0.1", port, 10);
@@ -88,6 +93,11 @@ std::vector<int64_t> Subscriber::Sequences() {
 std::vector<std::string> Subscriber::States() {
   std::lock_guard lock(mutex_);
   return states_;
+}
+
+bool Subscriber::WaitForResults(size_t count, double timeout_s) {
+  std::unique_lock lock(mutex_);
+  return arrived_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return sequences_.size() >= count; });
 }
 
 std::vector<int64_t> Subscriber::FirstArrivals() {

@@ -2,6 +2,7 @@
 // Test helpers for the MQTT output: a real mosquitto broker on a loopback port and a
 // subscriber that keeps what it receives.
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -49,6 +50,8 @@ class Subscriber {
   bool Subscribed() const { return subscribed_; }
   std::vector<int64_t> Sequences();
   std::vector<std::string> States();
+  // Waits until `count` result messages have arrived, at most `timeout_s`; whether they did.
+  bool WaitForResults(size_t count, double timeout_s);
   // The distinct sequences, in the order of their first arrival.
   std::vector<int64_t> FirstArrivals();
 
@@ -57,6 +60,7 @@ class Subscriber {
   mosquitto* client_ = nullptr;
   std::atomic<bool> subscribed_{false};
   std::mutex mutex_;
+  std::condition_variable arrived_;
   std::vector<int64_t> sequences_;
   std::vector<std::string> states_;
 };
