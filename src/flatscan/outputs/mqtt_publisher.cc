@@ -112,11 +112,13 @@ void MqttPublisher::EndSession(const char* state) {
   if (client_ == nullptr) return;
   if (state != nullptr) {
     PublishState(state);
-    // A clean stop gives the broker a moment for what is in flight; what it does not
-    // acknowledge stays after the cursor and is sent when the station starts again.
-    if (!Drain(std::chrono::seconds(5)))
+    // A clean stop gives the broker a moment for what is in flight (the state too: a
+    // disconnect right behind it could overtake it); what it does not acknowledge stays
+    // after the cursor and is sent when the station starts again.
+    std::unique_lock lock(mutex_);
+    if (!drained_.wait_for(lock, std::chrono::seconds(5), [&] { return outbox_.empty() && state_mid_ < 0; }))
       spdlog::warn("MQTT: {} record(s) not acknowledged by the broker; sent when the station starts again",
-                   Outstanding());
+                   outbox_.size());
   }
   mosquitto_disconnect(client_);  // a clean disconnect: the broker keeps the retained state, not the will
   mosquitto_loop_stop(client_, false);
@@ -150,8 +152,10 @@ void MqttPublisher::SendLocked(int64_t sequence) {
 void MqttPublisher::PublishState(const char* state) {
   std::lock_guard lock(mutex_);
   state_ = state;
-  mosquitto_publish(client_, nullptr, state_topic_.c_str(), static_cast<int>(state_.size()), state_.data(), kQos,
-                    true);
+  int mid = 0;
+  if (mosquitto_publish(client_, &mid, state_topic_.c_str(), static_cast<int>(state_.size()), state_.data(), kQos,
+                        true) == MOSQ_ERR_SUCCESS)
+    state_mid_ = mid;
 }
 
 void MqttPublisher::OnConnect(mosquitto* client, void* self_ptr, int rc) {
@@ -165,8 +169,10 @@ void MqttPublisher::OnConnect(mosquitto* client, void* self_ptr, int rc) {
   spdlog::info("MQTT {}:{}: connected; {} record(s) to send", self->options_.host, self->options_.port,
                self->outbox_.size());
   self->connected_ = true;
-  mosquitto_publish(client, nullptr, self->state_topic_.c_str(), static_cast<int>(self->state_.size()),
-                    self->state_.data(), kQos, true);
+  int mid = 0;
+  const int sent = mosquitto_publish(client, &mid, self->state_topic_.c_str(), static_cast<int>(self->state_.size()),
+                                     self->state_.data(), kQos, true);
+  if (self->state_mid_ >= 0 && sent == MOSQ_ERR_SUCCESS) self->state_mid_ = mid;  // a stop waits for this one
   // Everything not acknowledged, oldest first (what the broker already had, it gets twice).
   self->in_flight_.clear();
   for (const auto& entry : self->outbox_) self->SendLocked(entry.first);
@@ -195,12 +201,17 @@ void MqttPublisher::OnDisconnect(mosquitto* /*client*/, void* self_ptr, int rc) 
 void MqttPublisher::OnPublish(mosquitto* /*client*/, void* self_ptr, int mid) {
   auto* self = static_cast<MqttPublisher*>(self_ptr);
   std::lock_guard lock(self->mutex_);
+  if (mid == self->state_mid_) {
+    self->state_mid_ = -1;
+    self->drained_.notify_all();
+    return;
+  }
   const auto it = self->in_flight_.find(mid);
-  if (it == self->in_flight_.end()) return;  // the state, or a message of an earlier connection
+  if (it == self->in_flight_.end()) return;  // a message of an earlier connection
   self->outbox_.erase(it->second);
   self->in_flight_.erase(it);
   self->AdvanceCursorLocked();
-  if (self->outbox_.empty()) self->drained_.notify_all();
+  if (self->outbox_.empty()) self->drained_.notify_all();  // Drain(), EndSession()
 }
 
 // Every sequence below the oldest record still in the outbox is acknowledged.

@@ -83,6 +83,7 @@ class MqttPublisher : public RecordPublisher {
   std::condition_variable drained_;
   bool connected_ = false;
   std::string state_ = "ready";
+  int state_mid_ = -1;                     // message id of the last state sent at a stop, until acknowledged
   std::map<int64_t, std::string> outbox_;  // sequence -> payload, not yet acknowledged
   std::map<int, int64_t> in_flight_;       // message id -> sequence, this connection
   int64_t last_given_ = 0;                 // the newest sequence put in the outbox

@@ -43,6 +43,15 @@ bool Broker::Start() {
 bool Broker::Stop() { return Signal(SIGTERM); }
 bool Broker::Kill() { return Signal(SIGKILL); }
 
+bool Broker::Save() {
+  if (!process_) return false;
+  const fs::path db = dir_ / "mosquitto.db";
+  std::error_code error;
+  const auto before = fs::exists(db) ? fs::last_write_time(db, error) : fs::file_time_type::min();
+  process_->Signal(SIGUSR1);
+  return WaitFor([&] { return fs::exists(db) && fs::last_write_time(db, error) != before; }, 10);
+}
+
 bool Broker::Signal(int signal) {
   if (!process_) return false;
   process_->Signal(signal);

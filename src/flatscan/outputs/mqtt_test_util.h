@@ -29,6 +29,8 @@ class Broker {
   bool Start();
   // SIGTERM: mosquitto saves its persistence file and exits.
   bool Stop();
+  // SIGUSR1: mosquitto writes its persistence file; waits (at most 10 s) until it has.
+  bool Save();
   // SIGKILL: what changed since its last save is lost.
   bool Kill();
 
