@@ -12,6 +12,7 @@ PACKAGES=(
   libsqlite3-dev libyaml-cpp-dev                    # the station's results store and recipe files (station/)
   libdeflate-dev                                    # inflating PNG image data (io/image_io.cc)
   libspng-dev                                       # a PNG decoder compared with ours and OpenCV's (bench/inspect_bench)
+  libmodbus-dev                                     # Modbus TCP server for the PLC (outputs/modbus_server.cc)
   libmosquitto-dev mosquitto                        # MQTT line output (outputs/mqtt_publisher.cc); the broker for its tests
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)

@@ -19,6 +19,7 @@
 #include "flatscan/exe/cli.h"
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/number_checks.h"
+#include "flatscan/outputs/modbus_server.h"
 #include "flatscan/outputs/mqtt_publisher.h"
 #include "flatscan/station/pair_source.h"
 #include "flatscan/station/recipe.h"
@@ -84,6 +85,9 @@ class StationCommand : public Command {
                      "exit 0 once this many seconds passed since the last record with nothing in flight")
         ->check(RealIn(0, 1e6));
     sub_->add_option("--log", log_, "rotating log file (default: the store's name with .log)");
+    sub_->add_option("--modbus", modbus_,
+                     "Modbus TCP server for the PLC on ADDR:PORT (or PORT: on 127.0.0.1); the register map is in "
+                     "docs/line-outputs.md");
     sub_->add_option("--mqtt", mqtt_, "MQTT broker HOST:PORT: each record on flatscan/<station>/result (QoS 1), the "
                                       "state retained on flatscan/<station>/state (docs/line-outputs.md)");
     sub_->add_option("--mqtt-user", mqtt_user_, "MQTT user name");
@@ -122,6 +126,14 @@ class StationCommand : public Command {
     station.AddPublisher(&status);
     const std::unique_ptr<MqttPublisher> mqtt = MakeMqtt(*store);
     if (mqtt) station.AddPublisher(mqtt.get());
+    std::unique_ptr<ModbusServer> modbus;
+    if (!modbus_.empty()) {
+      const auto [address, port] =
+          ParseHostPort(modbus_.find(':') == std::string::npos ? "127.0.0.1:" + modbus_ : modbus_, "--modbus");
+      modbus = std::make_unique<ModbusServer>(address, port, recipes_.size(),
+                                              [&station](size_t index) { station.SetActiveRecipe(index); });
+      station.AddPublisher(modbus.get());
+    }
     station.SetArchive(archive.get());
     try {
       station.Run(StopGracefullyOnSignal());
@@ -149,6 +161,8 @@ class StationCommand : public Command {
         ThrowInputError("--mqtt-user, --mqtt-password-file and --mqtt-tls-ca need --mqtt HOST:PORT");
       return nullptr;
     }
+    if (!mqtt_password_file_.empty() && mqtt_user_.empty())
+      ThrowInputError("--mqtt-password-file needs --mqtt-user (a password without a user name is not sent)");
     MqttOptions o;
     std::tie(o.host, o.port) = ParseHostPort(mqtt_, "--mqtt");
     o.station_id = station_id_;
@@ -187,7 +201,7 @@ class StationCommand : public Command {
 
   std::vector<std::string> recipes_;
   std::string source_, store_, station_id_, log_, status_, archive_;
-  std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_;
+  std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_;
   std::optional<double> until_idle_s_;
   double half_pair_timeout_s_ = 10;
   int keep_done_ = 1000;

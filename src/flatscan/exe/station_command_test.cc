@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <modbus/modbus.h>
 #include <sqlite3.h>
 #include <nlohmann/json.hpp>
 
@@ -393,6 +394,58 @@ TEST_F(StationCommand, PublishesEveryRecordToMqtt) {
   EXPECT_NE(lone.err.find("--mqtt-user, --mqtt-password-file and --mqtt-tls-ca need --mqtt HOST:PORT"),
             std::string::npos)
       << lone.err;
+}
+
+}  // namespace
+}  // namespace flatscan
+
+namespace flatscan {
+namespace {
+
+// --modbus: a libmodbus client playing the PLC reads and acknowledges every verdict of a
+// station run (the pairs file: 3 measured pairs, 2 not measured).
+TEST_F(StationCommand, ServesEveryVerdictToAPlcOverModbus) {
+  const int port = testing::FreeLoopbackPort();
+  testing::CommandResult run;
+  std::thread station([&] {
+    run = testing::RunFlatscan(fmt::format("station --recipe {} --source pairs:{} --store {} --modbus {} --until-idle 3",
+                                           (Dir() / "shield.yml").string(), (Dir() / "all.csv").string(),
+                                           (Dir() / "modbus.db").string(), port),
+                               120);
+  });
+  modbus_t* plc = modbus_new_tcp("127.0.0.1", port);
+  std::vector<std::pair<int, int>> seen;  // (sequence, outcome)
+  testing::WaitFor(
+      [&] {
+        uint16_t r[12] = {};
+        if (modbus_read_registers(plc, 0, 12, r) != 12) {
+          modbus_close(plc);
+          modbus_connect(plc);  // not listening yet, or dropped: again
+          return false;
+        }
+        if (r[9] > 0) {  // pending: read the shown result, acknowledge it
+          seen.emplace_back(r[5], r[6]);
+          modbus_write_register(plc, 10, r[5]);
+        }
+        return seen.size() >= 5;
+      },
+      60);
+  modbus_close(plc);
+  modbus_free(plc);
+  station.join();
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::vector<json> records = Results("modbus.db");
+  ASSERT_EQ(seen.size(), records.size());
+  for (size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(seen[i].first, records[i]["sequence"].get<int>());
+    const bool measured = records[i]["measured"].get<bool>();
+    const int expected = !measured ? 5 : records[i]["verdict"] == "pass" ? (records[i]["marginal"].get<bool>() ? 3 : 1)
+                                                                         : (records[i]["marginal"].get<bool>() ? 4 : 2);
+    EXPECT_EQ(seen[i].second, expected) << i;
+  }
+  const auto bad = Station("good.csv", "modbus-bad.db", "--modbus 127.0.0.1:0x50");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--modbus '127.0.0.1:0x50': expected HOST:PORT"), std::string::npos) << bad.err;
 }
 
 }  // namespace
