@@ -16,17 +16,27 @@ namespace {
 
 constexpr int kQos = 1;  // at least once
 
-// The cursor file: {"acked_through": N}. Missing: nullopt.
+// The cursor file: {"acked_through": N}. Missing: nullopt. One that cannot be read or
+// parsed (a power cut while it was replaced) gives 0: every record is sent again, which
+// subscribers de-duplicate; skipping records the broker never had would lose them.
 std::optional<int64_t> ReadCursor(const std::filesystem::path& file) {
+  std::error_code error;
+  if (!std::filesystem::exists(file, error) && !error) return std::nullopt;
   std::ifstream in(file);
-  if (!in) return std::nullopt;
   try {
-    return nlohmann::json::parse(in).at("acked_through").get<int64_t>();
+    if (in) return nlohmann::json::parse(in).at("acked_through").get<int64_t>();
   } catch (const nlohmann::json::exception&) {
-    ThrowInputError("{}: expected {{\"acked_through\": N}} (the MQTT output's cursor); delete it to start from the "
-                    "store's last record",
-                    file.string());
   }
+  spdlog::warn("{}: expected {{\"acked_through\": N}} (the MQTT output's cursor): every record in the store is sent "
+               "again",
+               file.string());
+  return 0;
+}
+
+// A record as its JSON line: text that is not UTF-8 (a Latin-1 file name) as U+FFFD, as
+// the store and `flatscan results` write it (a plain dump() throws on it).
+std::string Payload(const StationRecord& record) {
+  return StationRecordToJson(record).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 // libmosquitto is initialised once per process (its own reference count is not
@@ -71,91 +81,155 @@ MqttPublisher::MqttPublisher(MqttOptions options, ResultsStore& store)
   }
   if (cursor_ < last) {
     store.ForEach({}, [&](const StationRecord& r) {
-      if (r.sequence > cursor_) outbox_[r.sequence] = StationRecordToJson(r).dump();
+      if (r.sequence > cursor_) outbox_[r.sequence] = {Payload(r), false};
     });
     spdlog::info("MQTT: {} record(s) after #{} not yet acknowledged by a broker: sent first", outbox_.size(), cursor_);
   }
   last_given_ = last;
   if (!cursor && !options_.cursor_file.empty()) SaveCursor();  // from now on, what is not acknowledged is caught up
 
-  client_ = mosquitto_new(("flatscan-" + options_.station_id).c_str(), true, this);
-  if (client_ == nullptr) throw std::runtime_error("MQTT: cannot create a client (out of memory)");
-  mosquitto_connect_callback_set(client_, &MqttPublisher::OnConnect);
-  mosquitto_disconnect_callback_set(client_, &MqttPublisher::OnDisconnect);
-  mosquitto_publish_callback_set(client_, &MqttPublisher::OnPublish);
-  mosquitto_log_callback_set(client_, &MqttPublisher::OnLog);
-  mosquitto_reconnect_delay_set(client_, 1, 5, true);
+  client_ = NewClient();
+  thread_ = std::thread([this] { Loop(); });
+}
+
+// A client with the options. A new one for every connection: libmosquitto 2.0 sends the
+// messages it still holds again after a reconnection, after anything handed to it in
+// between, which would break the order; with a new client, each connection starts from
+// the outbox, oldest first, and nothing is sent twice by the library.
+mosquitto* MqttPublisher::NewClient() {
+  mosquitto* client = mosquitto_new(("flatscan-" + options_.station_id).c_str(), true, this);
+  if (client == nullptr) throw std::runtime_error("MQTT: cannot create a client (out of memory)");
+  mosquitto_connect_callback_set(client, &MqttPublisher::OnConnect);
+  mosquitto_disconnect_callback_set(client, &MqttPublisher::OnDisconnect);
+  mosquitto_publish_callback_set(client, &MqttPublisher::OnPublish);
+  mosquitto_log_callback_set(client, &MqttPublisher::OnLog);
   const std::string offline = "offline";
-  mosquitto_will_set(client_, state_topic_.c_str(), static_cast<int>(offline.size()), offline.data(), kQos, true);
+  mosquitto_will_set(client, state_topic_.c_str(), static_cast<int>(offline.size()), offline.data(), kQos, true);
   if (!options_.username.empty())
-    mosquitto_username_pw_set(client_, options_.username.c_str(),
+    mosquitto_username_pw_set(client, options_.username.c_str(),
                               options_.password.empty() ? nullptr : options_.password.c_str());
   if (!options_.tls_ca_file.empty()) {
-    const int rc = mosquitto_tls_set(client_, options_.tls_ca_file.c_str(), nullptr, nullptr, nullptr, nullptr);
+    const int rc = mosquitto_tls_set(client, options_.tls_ca_file.c_str(), nullptr, nullptr, nullptr, nullptr);
     if (rc != MOSQ_ERR_SUCCESS) {
-      mosquitto_destroy(client_);
+      mosquitto_destroy(client);
       ThrowInputError("--mqtt-tls-ca '{}': {} (expected a readable CA certificate, PEM)", options_.tls_ca_file,
                       mosquitto_strerror(rc));
     }
   }
-  // Asynchronous: the loop thread connects, and connects again after an outage.
-  const int rc = mosquitto_connect_async(client_, options_.host.c_str(), options_.port, options_.keepalive_s);
-  if (rc != MOSQ_ERR_SUCCESS)
-    spdlog::warn("MQTT {}:{}: {} (trying again in the background)", options_.host, options_.port,
-                 mosquitto_strerror(rc));
-  mosquitto_loop_start(client_);
+  mosquitto_threaded_set(client, true);  // Publish() comes from the station's thread
+  return client;
 }
 
 MqttPublisher::~MqttPublisher() { EndSession(nullptr); }
 
 void MqttPublisher::EndSession(const char* state) {
   if (client_ == nullptr) return;
+  bool delivered = false;
   if (state != nullptr) {
     PublishState(state);
     // A clean stop gives the broker a moment for what is in flight (the state too: a
     // disconnect right behind it could overtake it); what it does not acknowledge stays
     // after the cursor and is sent when the station starts again.
     std::unique_lock lock(mutex_);
-    if (!drained_.wait_for(lock, std::chrono::seconds(5), [&] { return outbox_.empty() && state_mid_ < 0; }))
+    delivered = drained_.wait_for(lock, std::chrono::seconds(5), [&] { return outbox_.empty() && state_mid_ < 0; });
+    if (!delivered)
       spdlog::warn("MQTT: {} record(s) not acknowledged by the broker; sent when the station starts again",
                    outbox_.size());
   }
-  mosquitto_disconnect(client_);  // a clean disconnect: the broker keeps the retained state, not the will
-  mosquitto_loop_stop(client_, false);
+  // Delivered: a clean DISCONNECT (the broker keeps the retained state). Otherwise the
+  // socket is just closed, and the broker publishes the will, "offline".
+  disconnect_cleanly_ = delivered;
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
   mosquitto_destroy(client_);
   client_ = nullptr;
 }
 
+// The connection's own loop (not mosquitto_loop_start: with libmosquitto 2.0.11 its thread
+// gives up for good after a TLS or protocol error, never starts when the first connection
+// is refused, and can block a stop for minutes in a blocking connect): a non-blocking
+// connect, mosquitto_loop() in 0.1 s steps, and every failure retried after 1, 2, 4, 5,
+// 5 ... s, each wait cut short by a stop.
+void MqttPublisher::Loop() {
+  auto backoff = std::chrono::seconds(1);
+  bool open = false;
+  while (!stop_) {
+    if (!open) {
+      const int rc = mosquitto_connect_async(client_, options_.host.c_str(), options_.port, options_.keepalive_s);
+      open = rc == MOSQ_ERR_SUCCESS;
+      if (!open) {
+        OnLog(client_, this, MOSQ_LOG_WARNING, mosquitto_strerror(rc));
+        WaitBeforeRetry(backoff);
+        continue;
+      }
+    }
+    const int rc = mosquitto_loop(client_, 100, 1);
+    if (rc != MOSQ_ERR_SUCCESS) {  // lost or never made: any error is retried, on a new client
+      open = false;
+      {
+        std::lock_guard lock(mutex_);
+        connected_ = false;
+        in_flight_.clear();
+        for (auto& entry : outbox_) entry.second.handed = false;
+        mosquitto_destroy(client_);
+        client_ = NewClient();
+      }
+      WaitBeforeRetry(backoff);
+    } else if (connected_) {
+      backoff = std::chrono::seconds(1);
+    }
+  }
+  if (open && disconnect_cleanly_) {
+    mosquitto_disconnect(client_);
+    for (int i = 0; i < 10 && mosquitto_loop(client_, 100, 1) == MOSQ_ERR_SUCCESS; ++i) {
+    }
+  }
+}
+
+void MqttPublisher::WaitBeforeRetry(std::chrono::seconds& backoff) {
+  std::unique_lock lock(mutex_);
+  wake_.wait_for(lock, backoff, [&] { return stop_.load(); });
+  backoff = std::min(2 * backoff, std::chrono::seconds(5));
+}
+
 void MqttPublisher::Publish(const StationRecord& record, const StationCounts& /*counts*/) {
   std::lock_guard lock(mutex_);
-  outbox_[record.sequence] = StationRecordToJson(record).dump();
+  outbox_[record.sequence] = {Payload(record), false};
   last_given_ = std::max(last_given_, record.sequence);
-  if (connected_) SendLocked(record.sequence);
+  if (connected_) SendLocked(record.sequence);  // otherwise at the connection, in order
 }
 
 void MqttPublisher::Stopped(const StationCounts& /*counts*/) { EndSession("stopped"); }
 
 void MqttPublisher::Failed(const StationCounts& /*counts*/, const std::string& /*reason*/) { EndSession("error"); }
 
+// Hands a record to the connected client: it sends it (in order, at most 20 awaiting
+// their PUBACK) and keeps it until the broker acknowledges it.
 void MqttPublisher::SendLocked(int64_t sequence) {
-  const std::string& payload = outbox_.at(sequence);
+  OutboxEntry& entry = outbox_.at(sequence);
   int mid = 0;
-  const int rc = mosquitto_publish(client_, &mid, result_topic_.c_str(), static_cast<int>(payload.size()),
-                                   payload.data(), kQos, false);
-  if (rc == MOSQ_ERR_SUCCESS)
+  const int rc = mosquitto_publish(client_, &mid, result_topic_.c_str(), static_cast<int>(entry.payload.size()),
+                                   entry.payload.data(), kQos, false);
+  if (rc == MOSQ_ERR_SUCCESS || rc == MOSQ_ERR_NO_CONN) {
+    entry.handed = true;
     in_flight_[mid] = sequence;
-  else  // not sent: it stays in the outbox for the next connection
-    spdlog::warn("MQTT: record #{} not sent now ({}); sent again on the next connection", sequence,
+  } else {  // not queued (out of memory): handed again at the next connection
+    spdlog::warn("MQTT: record #{} not queued ({}); tried again at the next connection", sequence,
                  mosquitto_strerror(rc));
+  }
 }
 
 void MqttPublisher::PublishState(const char* state) {
   std::lock_guard lock(mutex_);
   state_ = state;
   int mid = 0;
-  if (mosquitto_publish(client_, &mid, state_topic_.c_str(), static_cast<int>(state_.size()), state_.data(), kQos,
-                        true) == MOSQ_ERR_SUCCESS)
-    state_mid_ = mid;
+  const int rc = mosquitto_publish(client_, &mid, state_topic_.c_str(), static_cast<int>(state_.size()),
+                                   state_.data(), kQos, true);
+  if (rc == MOSQ_ERR_SUCCESS || rc == MOSQ_ERR_NO_CONN) state_mid_ = mid;  // sent again at a connection
 }
 
 void MqttPublisher::OnConnect(mosquitto* client, void* self_ptr, int rc) {
@@ -166,16 +240,21 @@ void MqttPublisher::OnConnect(mosquitto* client, void* self_ptr, int rc) {
     return;
   }
   std::lock_guard lock(self->mutex_);
-  spdlog::info("MQTT {}:{}: connected; {} record(s) to send", self->options_.host, self->options_.port,
+  spdlog::info("MQTT {}:{}: connected; {} record(s) not yet acknowledged", self->options_.host, self->options_.port,
                self->outbox_.size());
   self->connected_ = true;
   int mid = 0;
   const int sent = mosquitto_publish(client, &mid, self->state_topic_.c_str(), static_cast<int>(self->state_.size()),
                                      self->state_.data(), kQos, true);
   if (self->state_mid_ >= 0 && sent == MOSQ_ERR_SUCCESS) self->state_mid_ = mid;  // a stop waits for this one
-  // Everything not acknowledged, oldest first (what the broker already had, it gets twice).
-  self->in_flight_.clear();
-  for (const auto& entry : self->outbox_) self->SendLocked(entry.first);
+  {
+    std::lock_guard log_lock(self->log_mutex_);
+    self->last_log_.clear();  // an error that comes back is logged again
+  }
+  // Everything not acknowledged, oldest first (what the broker already had and whose
+  // acknowledgement the outage cut off, it gets twice).
+  for (auto& entry : self->outbox_)
+    if (!entry.second.handed) self->SendLocked(entry.first);
 }
 
 // libmosquitto's errors (a TLS certificate refused, a broker unreachable) in the log,
@@ -192,8 +271,8 @@ void MqttPublisher::OnLog(mosquitto* /*client*/, void* self_ptr, int level, cons
 void MqttPublisher::OnDisconnect(mosquitto* /*client*/, void* self_ptr, int rc) {
   auto* self = static_cast<MqttPublisher*>(self_ptr);
   std::lock_guard lock(self->mutex_);
-  self->connected_ = false;
-  if (rc != 0)
+  // Logged when a connection that was made is lost, not at each refused attempt.
+  if (self->connected_.exchange(false) && rc != 0)
     spdlog::warn("MQTT {}:{}: connection lost; {} record(s) kept until it returns", self->options_.host,
                  self->options_.port, self->outbox_.size());
 }

@@ -15,6 +15,7 @@
 // State payloads (plain text, retained): "ready" while the station runs, "stopped"
 // after a clean stop, "error" when it stopped because it could not record, and
 // "offline" (the last will, sent by the broker) when the connection was lost.
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -22,6 +23,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <thread>
 
 #include "flatscan/station/inspection_station.h"
 #include "flatscan/store/results_store.h"
@@ -46,11 +48,12 @@ std::pair<std::string, int> ParseHostPort(const std::string& spec, const std::st
 
 class MqttPublisher : public RecordPublisher {
  public:
-  // Connects in the background (and again after every outage, every 1-5 s); does not
-  // wait for the broker. With a cursor file, the records of `store` after the cursor's
+  // Connects in the background, on its own thread (and again after every failure or
+  // outage, after 1, 2, 4, then every 5 s); does not wait for the broker. With a cursor file, the records of `store` after the cursor's
   // sequence are put in the outbox first; without one the cursor starts at the store's
-  // last sequence (history is not replayed into a broker that never had it). Throws
-  // InputError for options libmosquitto refuses (a TLS file that cannot be read).
+  // last sequence (history is not replayed into a broker that never had it); a cursor
+  // file that cannot be read sends everything again. Throws InputError for options
+  // libmosquitto refuses (a TLS file that cannot be read).
   MqttPublisher(MqttOptions options, ResultsStore& store);
   ~MqttPublisher() override;
   MqttPublisher(const MqttPublisher&) = delete;
@@ -75,17 +78,28 @@ class MqttPublisher : public RecordPublisher {
   void AdvanceCursorLocked();
   void SaveCursor() const;
   void EndSession(const char* state);
+  mosquitto* NewClient();
+  void Loop();
+  void WaitBeforeRetry(std::chrono::seconds& backoff);
 
   MqttOptions options_;
   std::string result_topic_, state_topic_;
   mosquitto* client_ = nullptr;
   mutable std::mutex mutex_;
   std::condition_variable drained_;
-  bool connected_ = false;
+  std::atomic<bool> connected_{false};
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> disconnect_cleanly_{false};
+  std::condition_variable wake_;           // a stop cuts a retry's wait short
+  std::thread thread_;
   std::string state_ = "ready";
   int state_mid_ = -1;                     // message id of the last state sent at a stop, until acknowledged
-  std::map<int64_t, std::string> outbox_;  // sequence -> payload, not yet acknowledged
-  std::map<int, int64_t> in_flight_;       // message id -> sequence, this connection
+  struct OutboxEntry {
+    std::string payload;
+    bool handed = false;  // to this connection's client, which keeps it until the broker's PUBACK
+  };
+  std::map<int64_t, OutboxEntry> outbox_;  // by sequence, not yet acknowledged
+  std::map<int, int64_t> in_flight_;       // message id -> sequence
   int64_t last_given_ = 0;                 // the newest sequence put in the outbox
   int64_t cursor_ = 0;                     // every sequence <= cursor_ is acknowledged
   std::mutex log_mutex_;

@@ -55,7 +55,7 @@ class BackgroundFlatscan : public BackgroundProcess {
   BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log);
 };
 
-// A TCP port on 127.0.0.1 that was free a moment ago (bound to port 0, then released).
+// A TCP port on 127.0.0.1 that was free a moment ago (20000-32000, below the ephemeral range).
 int FreeLoopbackPort();
 // Whether something accepts TCP connections on 127.0.0.1:`port`.
 bool LoopbackPortAccepts(int port);
