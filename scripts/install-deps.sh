@@ -14,6 +14,8 @@ PACKAGES=(
   libspng-dev                                       # a PNG decoder compared with ours and OpenCV's (bench/inspect_bench)
   libmodbus-dev                                     # Modbus TCP server for the PLC (outputs/modbus_server.cc)
   libmosquitto-dev mosquitto                        # MQTT line output (outputs/mqtt_publisher.cc); the broker for its tests
+  libpq-dev postgresql                              # the plant store (store/postgres_results_store.cc); the server for its tests
+  openssl                                           # self-signed certificates for the TLS tests (MQTT, PostgreSQL)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)
 )

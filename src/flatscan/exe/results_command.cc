@@ -10,6 +10,7 @@
 #include "flatscan/exe/commands.h"
 #include "flatscan/io/output_files.h"
 #include "flatscan/io/pairs_csv.h"
+#include "flatscan/store/postgres_results_store.h"
 #include "flatscan/store/results_store.h"
 #include "flatscan/util/error.h"
 
@@ -43,7 +44,10 @@ class ResultsCommand : public Command {
     sub_->footer("Example: flatscan results --store results.db --from 2026-12-04T06:00 --to 2026-12-04T14:00 --csv "
                  "shift.csv\nTimes are UTC (ISO 8601); --from is included, --to is not. Files default to standard "
                  "output; with neither --csv nor --json, JSON lines go to standard output.");
-    sub_->add_option("--store", store_, "results store (the SQLite file `flatscan station` writes)")->required();
+    sub_->add_option("--store", store_,
+                     "results store: the SQLite file `flatscan station` writes, or the plant store "
+                     "(postgresql://user@host:port/dbname: every station's records)")
+        ->required();
     sub_->add_option("--from", from_, "first time (UTC, ISO 8601: 2026-12-04 or 2026-12-04T06:00:00Z), included");
     sub_->add_option("--to", to_, "last time (UTC, ISO 8601), excluded");
     csv_option_ = sub_->add_option("--csv", csv_, "CSV, to this file or standard output")->expected(0, 1);
@@ -58,20 +62,27 @@ class ResultsCommand : public Command {
     const bool csv = csv_option_->count() > 0;
     std::string& target = csv ? csv_ : json_;
     if (target.empty()) target = "-";
-    if (!std::filesystem::is_regular_file(store_)) ThrowInputError("--store '{}': no such results store", store_);
-    OutputFiles out({{"--store", store_}});
+    const bool plant = IsPostgresUri(store_);
+    if (!plant && !std::filesystem::is_regular_file(store_))
+      ThrowInputError("--store '{}': no such results store", store_);
+    std::vector<OutputFiles::Named> inputs;
+    if (!plant) inputs.push_back({"--store", store_});
+    OutputFiles out(inputs);
     out.Declare(csv ? "--csv" : "--json", target, OutputFiles::kStdoutAllowed);
     std::unique_ptr<ResultsStore> store;
     try {
-      store = OpenSqliteStore(store_, false);
+      if (plant) store = std::make_unique<PostgresResultsStore>(store_, "", false);
+      else store = OpenSqliteStore(store_, false);
     } catch (const StoreError& e) {
+      ThrowInputError("--store: {}", e.what());
+    } catch (const InputError& e) {  // a URI libpq cannot parse
       ThrowInputError("--store: {}", e.what());
     }
     const auto write = [&](std::ostream& os) {
       if (csv) os << kCsvHeader << "\n";
       store->ForEach(range, [&](const StationRecord& r) {
         if (csv) os << CsvLine(r);
-        else os << StationRecordToJson(r).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
+        else os << StationRecordToJsonText(r) << "\n";
       });
     };
     if (target == "-") {

@@ -21,6 +21,9 @@
 #include "flatscan/exe/number_checks.h"
 #include "flatscan/outputs/modbus_server.h"
 #include "flatscan/outputs/mqtt_publisher.h"
+#include "flatscan/outputs/plant_forwarder.h"
+#include "flatscan/station/triggered_source.h"
+#include "flatscan/store/postgres_results_store.h"
 #include "flatscan/station/pair_source.h"
 #include "flatscan/station/recipe.h"
 #include "flatscan/store/results_store.h"
@@ -88,12 +91,20 @@ class StationCommand : public Command {
     sub_->add_option("--modbus", modbus_,
                      "Modbus TCP server for the PLC on ADDR:PORT (or PORT: on 127.0.0.1); the register map is in "
                      "docs/line-outputs.md");
+    sub_->add_option("--trigger", trigger_,
+                     "plc: take a pair from the source only when the PLC triggers (Modbus register 12; needs "
+                     "--modbus); with a replay or a folder, to commission the PLC's handshake before the cameras")
+        ->check(CLI::IsMember({"plc"}));
     sub_->add_option("--mqtt", mqtt_, "MQTT broker HOST:PORT: each record on flatscan/<station>/result (QoS 1), the "
                                       "state retained on flatscan/<station>/state (docs/line-outputs.md)");
     sub_->add_option("--mqtt-user", mqtt_user_, "MQTT user name");
     sub_->add_option("--mqtt-password-file", mqtt_password_file_,
                      "file whose first line is the MQTT password (never on the command line, never logged)");
     sub_->add_option("--mqtt-tls-ca", mqtt_tls_ca_, "CA certificate (PEM) of the broker: TLS to the broker");
+    sub_->add_option("--plant-store", plant_store_,
+                     "plant-wide PostgreSQL store (postgresql://user@host:port/dbname; a password belongs in "
+                     "~/.pgpass): every record is forwarded to it after the local store, catching up after an outage "
+                     "(docs/line-outputs.md)");
     sub_->add_option("--status", status_, "status file (JSON, rewritten after every record; default: the store's "
                                           "name with .status.json)");
   }
@@ -107,6 +118,9 @@ class StationCommand : public Command {
     folder.half_pair_timeout = std::chrono::milliseconds(std::llround(1000 * half_pair_timeout_s_));
     folder.keep_done = keep_done_;
     const std::unique_ptr<PairSource> source = MakePairSource(source_, folder);
+    if (!trigger_.empty() && modbus_.empty()) ThrowInputError("--trigger plc needs --modbus (the PLC triggers there)");
+    std::optional<TriggeredSource> triggered;
+    if (!trigger_.empty()) triggered.emplace(*source);
     LogToFile(log_.empty() ? Beside(store_, ".log") : log_);
     std::unique_ptr<ResultsStore> store;
     try {
@@ -122,16 +136,19 @@ class StationCommand : public Command {
     if (!archive_.empty()) archive = MakeArchive(recipes);
     StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,
                       recipes.front().recipe.name);
-    InspectionStation station(std::move(recipes), *source, *store, options);
+    InspectionStation station(std::move(recipes), triggered ? *triggered : *source, *store, options);
     station.AddPublisher(&status);
     const std::unique_ptr<MqttPublisher> mqtt = MakeMqtt(*store);
     if (mqtt) station.AddPublisher(mqtt.get());
+    const std::unique_ptr<PlantForwarder> plant = MakePlantForwarder();
+    if (plant) station.AddPublisher(plant.get());
     std::unique_ptr<ModbusServer> modbus;
     if (!modbus_.empty()) {
       const auto [address, port] =
           ParseHostPort(modbus_.find(':') == std::string::npos ? "127.0.0.1:" + modbus_ : modbus_, "--modbus");
       modbus = std::make_unique<ModbusServer>(address, port, recipes_.size(),
                                               [&station](size_t index) { station.SetActiveRecipe(index); });
+      if (triggered) modbus->SetTrigger([&triggered] { triggered->Trigger(); });
       station.AddPublisher(modbus.get());
     }
     station.SetArchive(archive.get());
@@ -170,7 +187,22 @@ class StationCommand : public Command {
     if (!mqtt_password_file_.empty()) o.password = FirstLine(mqtt_password_file_, "--mqtt-password-file");
     o.tls_ca_file = mqtt_tls_ca_;
     o.cursor_file = Beside(store_, ".mqtt.json");
+    o.store_path = store_;  // at most 10,000 records wait in memory; the rest in the store
     return std::make_unique<MqttPublisher>(std::move(o), store);
+  }
+
+  std::unique_ptr<PlantForwarder> MakePlantForwarder() const {
+    if (plant_store_.empty()) return nullptr;
+    // The value is not repeated in a message: it may hold a password.
+    if (!IsPostgresUri(plant_store_))
+      ThrowInputError("--plant-store: expected a PostgreSQL URI (postgresql://user@host:port/dbname)");
+    try {
+      return std::make_unique<PlantForwarder>(PlantForwarderOptions{plant_store_, station_id_, store_});
+    } catch (const InputError& e) {
+      ThrowInputError("--plant-store: {}", e.what());
+    } catch (const StoreError& e) {
+      ThrowInputError("--store: {}", e.what());
+    }
   }
 
   // The first line of a secret's file, without its line end.
@@ -201,7 +233,7 @@ class StationCommand : public Command {
 
   std::vector<std::string> recipes_;
   std::string source_, store_, station_id_, log_, status_, archive_;
-  std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_;
+  std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_, plant_store_, trigger_;
   std::optional<double> until_idle_s_;
   double half_pair_timeout_s_ = 10;
   int keep_done_ = 1000;

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "flatscan/outputs/mqtt_test_util.h"
+#include "flatscan/store/postgres_test_util.h"
 #include "flatscan/util/sha256.h"
 #include "flatscan/util/test_util.h"
 
@@ -446,6 +447,94 @@ TEST_F(StationCommand, ServesEveryVerdictToAPlcOverModbus) {
   const auto bad = Station("good.csv", "modbus-bad.db", "--modbus 127.0.0.1:0x50");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--modbus '127.0.0.1:0x50': expected HOST:PORT"), std::string::npos) << bad.err;
+}
+
+// --trigger plc: the PLC starts each part (register 12). Nothing is measured before a
+// trigger; after each, the first read shows busy or already the new result, never a
+// ready station with nothing to show; then the PLC reads and acknowledges the result.
+TEST_F(StationCommand, ATriggeredStationMeasuresOnePairPerPlcTrigger) {
+  const int port = testing::FreeLoopbackPort();
+  testing::CommandResult run;
+  std::thread station([&] {
+    run = testing::RunFlatscan(
+        fmt::format("station --recipe {} --source pairs:{} --store {} --modbus {} --trigger plc --until-idle 4",
+                    (Dir() / "shield.yml").string(), (Dir() / "all.csv").string(), (Dir() / "trigger.db").string(),
+                    port),
+        120);
+  });
+  modbus_t* plc = modbus_new_tcp("127.0.0.1", port);
+  uint16_t r[13] = {};
+  const auto read = [&] { return modbus_read_registers(plc, 0, 13, r) == 13; };
+  ASSERT_TRUE(testing::WaitFor(
+      [&] {
+        if (read()) return true;
+        modbus_close(plc);
+        modbus_connect(plc);  // not listening yet: again
+        return false;
+      },
+      30));
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  ASSERT_TRUE(read());
+  EXPECT_EQ(r[9], 0) << "measured without a trigger";
+  std::vector<int> sequences;
+  for (int part = 1; part <= 5; ++part) {
+    ASSERT_EQ(modbus_write_register(plc, 12, 1), 1);
+    ASSERT_TRUE(read());
+    EXPECT_TRUE(r[1] == 2 || r[9] > 0) << "part " << part << ": state " << r[1] << ", pending " << r[9];
+    ASSERT_TRUE(testing::WaitFor([&] { return read() && r[9] > 0; }, 30)) << "part " << part;
+    sequences.push_back(r[5]);
+    EXPECT_EQ(r[9], 1);  // one trigger, one result
+    modbus_write_register(plc, 10, r[5]);
+  }
+  modbus_close(plc);
+  modbus_free(plc);
+  station.join();
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(sequences, (std::vector<int>{1, 2, 3, 4, 5}));
+  EXPECT_EQ(Results("trigger.db").size(), 5u);
+  const auto lone = Station("good.csv", "trigger-bad.db", "--trigger plc");
+  EXPECT_EQ(lone.exit_code, 2);
+  EXPECT_NE(lone.err.find("--trigger plc needs --modbus (the PLC triggers there)"), std::string::npos) << lone.err;
+}
+
+}  // namespace
+}  // namespace flatscan
+
+namespace flatscan {
+namespace {
+
+// --plant-store: the station forwards every record to a real PostgreSQL server, and
+// `flatscan results` reads the plant store as it reads the station's own.
+TEST_F(StationCommand, ForwardsEveryRecordToThePlantStore) {
+  testing::PostgresCluster cluster("plant-s3cret");
+  ASSERT_TRUE(cluster.initialized()) << cluster.Log();
+  ASSERT_TRUE(cluster.Start()) << cluster.Log();
+  const auto run = Station("all.csv", "plant.db", "--plant-store '" + cluster.Uri() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::vector<json> local = Results("plant.db");
+  ASSERT_EQ(local.size(), 5u);
+  const auto plant = testing::RunFlatscan("results --json --store '" + cluster.Uri() + "'", 60);
+  ASSERT_EQ(plant.exit_code, 0) << plant.err;
+  EXPECT_EQ(JsonLines(plant.out), local);  // every record once, every key
+  for (const char* file : {"plant.db", "plant.db-wal", "plant.log", "plant.status.json"}) {
+    if (fs::exists(Dir() / file)) {
+      EXPECT_EQ(testing::ReadFileBytes(Dir() / file).find("plant-s3cret"), std::string::npos) << file;
+    }
+  }
+  EXPECT_EQ(run.err.find("plant-s3cret"), std::string::npos) << run.err;
+
+  const auto down = testing::RunFlatscan("results --json --store 'postgresql://flatscan:plant-s3cret@127.0.0.1:1/x'", 60);
+  EXPECT_EQ(down.exit_code, 2);
+  EXPECT_NE(down.err.find("--store: postgresql://flatscan@127.0.0.1:1/x: cannot connect to the plant store"),
+            std::string::npos)
+      << down.err;
+  EXPECT_EQ(down.err.find("plant-s3cret"), std::string::npos) << down.err;
+  const auto bad = Station("good.csv", "plant-bad.db", "--plant-store 'host=db password=plant-s3cret'");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--plant-store: expected a PostgreSQL URI (postgresql://user@host:port/dbname)"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_EQ(bad.err.find("plant-s3cret"), std::string::npos) << bad.err;
 }
 
 }  // namespace

@@ -85,6 +85,8 @@ void ModbusServer::Publish(const StationRecord& record, const StationCounts& /*c
     r.coverage_per_mille = Clamped(1000 * record.inspection.coverage, 1000);
   }
   std::lock_guard lock(mutex_);
+  if (triggers_waiting_ > 0 && --triggers_waiting_ == 0 && state_ == ModbusStationState::kBusy)
+    SetStateLocked(ModbusStationState::kReady);
   pending_.push_back(r);
   if (pending_.size() > kMaxPending) {
     spdlog::warn("Modbus: result #{} dropped: the PLC has not acknowledged the last {} results",
@@ -103,6 +105,11 @@ void ModbusServer::Stopped(const StationCounts& /*counts*/) {
 void ModbusServer::Failed(const StationCounts& /*counts*/, const std::string& /*reason*/) {
   std::lock_guard lock(mutex_);
   SetStateLocked(ModbusStationState::kError);
+}
+
+void ModbusServer::SetTrigger(std::function<void()> trigger) {
+  std::lock_guard lock(mutex_);
+  trigger_ = std::move(trigger);
 }
 
 uint16_t ModbusServer::Register(ModbusRegister r) const {
@@ -196,6 +203,17 @@ void ModbusServer::AfterWriteLocked(const uint8_t* request, int header) {
       spdlog::warn("Modbus: recipe index {} requested; there are {} recipes", index, recipe_count_);
     }
     r[kRecipeRequest] = 0;
+  }
+  if (Writes(request, header, kTrigger) && r[kTrigger] != 0) {
+    if (trigger_ && state_ != ModbusStationState::kNotReady && state_ != ModbusStationState::kError) {
+      trigger_();
+      ++triggers_waiting_;
+      state_ = ModbusStationState::kBusy;
+    } else {
+      spdlog::warn("Modbus: trigger refused: {}", trigger_ ? "the station is not ready"
+                                                           : "the station's source is not triggered (--trigger plc)");
+    }
+    r[kTrigger] = 0;
   }
   r[kActiveRecipe] = active_recipe_;
   r[kHeartbeat] = heartbeat_;

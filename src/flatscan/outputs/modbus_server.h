@@ -12,6 +12,11 @@
 // finds, when it comes back, the oldest result it has not acknowledged. A verdict is
 // therefore never overwritten before the PLC has read it, unless it fell behind by
 // kMaxPending parts.
+//
+// With a triggered source (--trigger plc) the PLC starts each part: it writes 1 to
+// kTrigger, the station shows busy and takes the next pair (with cameras: the capture),
+// and the result is then shown as above: trigger -> busy -> sequence changes -> the PLC
+// acknowledges.
 #include <atomic>
 #include <cstdint>
 #include <deque>
@@ -41,7 +46,8 @@ enum ModbusRegister : int {
   kPending = 9,          // results not yet acknowledged, the shown one included
   kAcknowledge = 10,     // written by the PLC: the low word of the shown sequence
   kDropped = 11,         // results dropped unacknowledged (queue full), saturating at 65535
-  kRegisterCount = 12,
+  kTrigger = 12,         // written by the PLC: 1 takes the next pair (--trigger plc); the station clears it (0)
+  kRegisterCount = 13,
 };
 
 enum class ModbusStationState : uint16_t { kNotReady = 0, kReady = 1, kBusy = 2, kError = 3 };
@@ -76,6 +82,11 @@ class ModbusServer : public RecordPublisher {
   void Stopped(const StationCounts& counts) override;
   void Failed(const StationCounts& counts, const std::string& reason) override;
 
+  // A trigger from the PLC (kTrigger) calls `trigger` (from the server's thread) and
+  // shows the station busy until the result of each trigger is published. Without one,
+  // a trigger is refused (logged; the station's source is not triggered).
+  void SetTrigger(std::function<void()> trigger);
+
   // The register values now (for tests and the log).
   uint16_t Register(ModbusRegister r) const;
 
@@ -93,6 +104,8 @@ class ModbusServer : public RecordPublisher {
 
   size_t recipe_count_;
   std::function<void(size_t)> switch_recipe_;
+  std::function<void()> trigger_;
+  size_t triggers_waiting_ = 0;  // triggers whose result is not yet published
   _modbus* context_ = nullptr;
   _modbus_mapping_t* registers_ = nullptr;
   int listen_socket_ = -1;

@@ -4,6 +4,7 @@
 #include <modbus/modbus.h>
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <thread>
 #include <vector>
@@ -167,6 +168,37 @@ TEST(ModbusServer, RecipeRequestsStatesAndReadOnlyRegisters) {
   EXPECT_EQ(plc.Read()[kStationState], static_cast<uint16_t>(ModbusStationState::kNotReady));
   server.Failed(StationCounts{}, "disk full");
   EXPECT_EQ(plc.Read()[kStationState], static_cast<uint16_t>(ModbusStationState::kError));
+}
+
+// The handshake of a triggered station: trigger -> busy -> result (sequence changes) ->
+// acknowledge -> ready.
+TEST(ModbusServer, ATriggerShowsBusyUntilItsResult) {
+  const int port = testing::FreeLoopbackPort();
+  ModbusServer server("127.0.0.1", port, 1, [](size_t) {});
+  Plc plc(port);
+  ASSERT_TRUE(plc.Connect());
+  ASSERT_TRUE(plc.Write(kTrigger, 1));  // no triggered source: refused, cleared
+  EXPECT_EQ(plc.Read()[kTrigger], 0);
+  EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kReady));
+  std::atomic<int> triggers{0};
+  server.SetTrigger([&] { ++triggers; });
+  for (int64_t part = 1; part <= 3; ++part) {
+    ASSERT_TRUE(plc.Write(kTrigger, 1));
+    auto r = plc.Read();  // answered after the write was handled (one thread serves both)
+    EXPECT_EQ(triggers, part);
+    EXPECT_EQ(r[kStationState], uint16_t(ModbusStationState::kBusy));
+    EXPECT_EQ(r[kTrigger], 0);
+    EXPECT_EQ(r[kPending], 0);
+    server.Publish(Record(part), StationCounts{});
+    r = plc.Read();
+    EXPECT_EQ(r[kStationState], uint16_t(ModbusStationState::kReady));
+    EXPECT_EQ(r[kSequenceLow], part);
+    ASSERT_TRUE(plc.Write(kAcknowledge, r[kSequenceLow]));
+  }
+  server.Stopped(StationCounts{});
+  ASSERT_TRUE(plc.Write(kTrigger, 1));  // a stopped station is not triggered
+  EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kNotReady));
+  EXPECT_EQ(triggers, 3);
 }
 
 TEST(ModbusServer, AnAddressItCannotListenOnIsAnInputError) {

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <fstream>
 #include <utility>
+#include <vector>
 
 #include <mosquitto.h>
 #include <nlohmann/json.hpp>
@@ -31,12 +32,6 @@ std::optional<int64_t> ReadCursor(const std::filesystem::path& file) {
                "again",
                file.string());
   return 0;
-}
-
-// A record as its JSON line: text that is not UTF-8 (a Latin-1 file name) as U+FFFD, as
-// the store and `flatscan results` write it (a plain dump() throws on it).
-std::string Payload(const StationRecord& record) {
-  return StationRecordToJson(record).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 // libmosquitto is initialised once per process (its own reference count is not
@@ -79,13 +74,15 @@ MqttPublisher::MqttPublisher(MqttOptions options, ResultsStore& store)
                  options_.cursor_file.string(), cursor_, last, last);
     cursor_ = last;
   }
-  if (cursor_ < last) {
-    store.ForEach({}, [&](const StationRecord& r) {
-      if (r.sequence > cursor_) outbox_[r.sequence] = {Payload(r), false};
-    });
-    spdlog::info("MQTT: {} record(s) after #{} not yet acknowledged by a broker: sent first", outbox_.size(), cursor_);
-  }
   last_given_ = last;
+  if (cursor_ < last) {
+    const int64_t in_memory =
+        options_.store_path.empty() ? last - cursor_ : std::min<int64_t>(last - cursor_, options_.outbox_in_memory);
+    store.ForEachAfter(cursor_, in_memory,
+                       [&](const StationRecord& r) { outbox_[r.sequence] = {StationRecordToJsonText(r), false}; });
+    if (cursor_ + in_memory < last) spilled_from_ = cursor_ + in_memory + 1;  // the rest is read back later
+    spdlog::info("MQTT: {} record(s) after #{} not yet acknowledged by a broker: sent first", last - cursor_, cursor_);
+  }
   if (!cursor && !options_.cursor_file.empty()) SaveCursor();  // from now on, what is not acknowledged is caught up
 
   client_ = NewClient();
@@ -131,10 +128,11 @@ void MqttPublisher::EndSession(const char* state) {
     // disconnect right behind it could overtake it); what it does not acknowledge stays
     // after the cursor and is sent when the station starts again.
     std::unique_lock lock(mutex_);
-    delivered = drained_.wait_for(lock, std::chrono::seconds(5), [&] { return outbox_.empty() && state_mid_ < 0; });
+    delivered = drained_.wait_for(lock, std::chrono::seconds(5),
+                                  [&] { return outbox_.empty() && spilled_from_ == 0 && state_mid_ < 0; });
     if (!delivered)
       spdlog::warn("MQTT: {} record(s) not acknowledged by the broker; sent when the station starts again",
-                   outbox_.size());
+                   OutstandingLocked());
   }
   // Delivered: a clean DISCONNECT (the broker keeps the retained state). Otherwise the
   // socket is just closed, and the broker publishes the will, "offline".
@@ -181,6 +179,7 @@ void MqttPublisher::Loop() {
       WaitBeforeRetry(backoff);
     } else if (connected_) {
       backoff = std::chrono::seconds(1);
+      RefillFromStore();
     }
   }
   if (open && disconnect_cleanly_) {
@@ -198,9 +197,54 @@ void MqttPublisher::WaitBeforeRetry(std::chrono::seconds& backoff) {
 
 void MqttPublisher::Publish(const StationRecord& record, const StationCounts& /*counts*/) {
   std::lock_guard lock(mutex_);
-  outbox_[record.sequence] = {Payload(record), false};
   last_given_ = std::max(last_given_, record.sequence);
+  const bool bounded = !options_.store_path.empty();
+  if (spilled_from_ > 0 || (bounded && outbox_.size() >= options_.outbox_in_memory)) {
+    if (spilled_from_ == 0) {
+      spilled_from_ = record.sequence;
+      spdlog::warn("MQTT: {} records wait for the broker; from #{} on they wait in the store only and are read back "
+                   "as it acknowledges",
+                   outbox_.size(), record.sequence);
+    }
+    return;
+  }
+  outbox_[record.sequence] = {StationRecordToJsonText(record), false};
   if (connected_) SendLocked(record.sequence);  // otherwise at the connection, in order
+}
+
+// Records that wait in the store only, read back (in order, after everything in memory)
+// once the broker has acknowledged half of what memory holds. On the loop's thread; the
+// store is read and the payloads made without the lock, so the station is not held up.
+void MqttPublisher::RefillFromStore() {
+  int64_t from = 0, through = 0;
+  size_t room = 0;
+  {
+    std::lock_guard lock(mutex_);
+    if (spilled_from_ == 0 || outbox_.size() > options_.outbox_in_memory / 2) return;
+    from = spilled_from_;
+    through = last_given_;  // a record committed but not yet given is not ours yet
+    room = options_.outbox_in_memory - outbox_.size();
+  }
+  std::vector<std::pair<int64_t, std::string>> read;
+  try {
+    if (!reader_) reader_ = OpenSqliteStore(options_.store_path, false);
+    reader_->ForEachAfter(from - 1, int64_t(room), [&](const StationRecord& r) {
+      if (r.sequence <= through) read.emplace_back(r.sequence, StationRecordToJsonText(r));
+    });
+    refill_error_.clear();
+  } catch (const StoreError& e) {  // tried again at the next turn of the loop
+    if (refill_error_ != e.what()) spdlog::warn("MQTT: cannot read records back from the store: {}", e.what());
+    refill_error_ = e.what();
+    reader_.reset();
+    return;
+  }
+  std::lock_guard lock(mutex_);
+  for (auto& [sequence, payload] : read) {
+    outbox_[sequence] = {std::move(payload), false};
+    if (connected_) SendLocked(sequence);
+  }
+  const int64_t last = read.empty() ? from - 1 : read.back().first;
+  spilled_from_ = last >= last_given_ ? 0 : last + 1;
 }
 
 void MqttPublisher::Stopped(const StationCounts& /*counts*/) { EndSession("stopped"); }
@@ -241,7 +285,7 @@ void MqttPublisher::OnConnect(mosquitto* client, void* self_ptr, int rc) {
   }
   std::lock_guard lock(self->mutex_);
   spdlog::info("MQTT {}:{}: connected; {} record(s) not yet acknowledged", self->options_.host, self->options_.port,
-               self->outbox_.size());
+               self->OutstandingLocked());
   self->connected_ = true;
   int mid = 0;
   const int sent = mosquitto_publish(client, &mid, self->state_topic_.c_str(), static_cast<int>(self->state_.size()),
@@ -274,7 +318,7 @@ void MqttPublisher::OnDisconnect(mosquitto* /*client*/, void* self_ptr, int rc) 
   // Logged when a connection that was made is lost, not at each refused attempt.
   if (self->connected_.exchange(false) && rc != 0)
     spdlog::warn("MQTT {}:{}: connection lost; {} record(s) kept until it returns", self->options_.host,
-                 self->options_.port, self->outbox_.size());
+                 self->options_.port, self->OutstandingLocked());
 }
 
 void MqttPublisher::OnPublish(mosquitto* /*client*/, void* self_ptr, int mid) {
@@ -290,12 +334,14 @@ void MqttPublisher::OnPublish(mosquitto* /*client*/, void* self_ptr, int mid) {
   self->outbox_.erase(it->second);
   self->in_flight_.erase(it);
   self->AdvanceCursorLocked();
-  if (self->outbox_.empty()) self->drained_.notify_all();  // Drain(), EndSession()
+  if (self->outbox_.empty() && self->spilled_from_ == 0) self->drained_.notify_all();  // Drain(), EndSession()
 }
 
 // Every sequence below the oldest record still in the outbox is acknowledged.
 void MqttPublisher::AdvanceCursorLocked() {
-  const int64_t through = outbox_.empty() ? last_given_ : outbox_.begin()->first - 1;
+  const int64_t through = !outbox_.empty() ? outbox_.begin()->first - 1
+                          : spilled_from_ > 0 ? spilled_from_ - 1
+                                              : last_given_;
   if (through <= cursor_) return;
   cursor_ = through;
   SaveCursor();
@@ -312,10 +358,19 @@ void MqttPublisher::SaveCursor() const {
 
 bool MqttPublisher::Drain(std::chrono::milliseconds timeout) {
   std::unique_lock lock(mutex_);
-  return drained_.wait_for(lock, timeout, [&] { return outbox_.empty(); });
+  return drained_.wait_for(lock, timeout, [&] { return outbox_.empty() && spilled_from_ == 0; });
 }
 
 size_t MqttPublisher::Outstanding() const {
+  std::lock_guard lock(mutex_);
+  return OutstandingLocked();
+}
+
+size_t MqttPublisher::OutstandingLocked() const {
+  return outbox_.size() + size_t(spilled_from_ > 0 ? last_given_ - spilled_from_ + 1 : 0);
+}
+
+size_t MqttPublisher::InMemory() const {
   std::lock_guard lock(mutex_);
   return outbox_.size();
 }

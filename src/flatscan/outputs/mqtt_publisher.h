@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -40,6 +41,11 @@ struct MqttOptions {
   std::string tls_ca_file;             // a CA certificate (PEM): TLS to the broker; empty: plain TCP
   std::filesystem::path cursor_file;   // last acknowledged sequence; empty: none (no catch-up)
   int keepalive_s = 10;                // the broker declares the station offline after 1.5 times this
+  // The results store's file: with it, at most outbox_in_memory records are held in memory
+  // during an outage (about 2 kB each) and the rest is read back from the store (its own
+  // read-only connection) as the broker acknowledges; empty: all are held in memory.
+  std::string store_path;
+  size_t outbox_in_memory = 10000;
 };
 
 // "HOST:PORT" (PORT 1-65535; HOST a name, an IPv4 address or [IPv6]) as host and port;
@@ -66,7 +72,9 @@ class MqttPublisher : public RecordPublisher {
   // Waits until the broker has acknowledged every record given so far, at most
   // `timeout`; whether it did.
   bool Drain(std::chrono::milliseconds timeout);
+  // Records not yet acknowledged by the broker; of them, those held in memory.
   size_t Outstanding() const;
+  size_t InMemory() const;
 
  private:
   static void OnConnect(mosquitto* client, void* self, int rc);
@@ -74,6 +82,8 @@ class MqttPublisher : public RecordPublisher {
   static void OnPublish(mosquitto* client, void* self, int mid);
   static void OnLog(mosquitto* client, void* self, int level, const char* text);
   void SendLocked(int64_t sequence);
+  void RefillFromStore();
+  size_t OutstandingLocked() const;
   void PublishState(const char* state);
   void AdvanceCursorLocked();
   void SaveCursor() const;
@@ -101,6 +111,9 @@ class MqttPublisher : public RecordPublisher {
   std::map<int64_t, OutboxEntry> outbox_;  // by sequence, not yet acknowledged
   std::map<int, int64_t> in_flight_;       // message id -> sequence
   int64_t last_given_ = 0;                 // the newest sequence put in the outbox
+  int64_t spilled_from_ = 0;               // > 0: records from this one to last_given_ are in the store only
+  std::unique_ptr<ResultsStore> reader_;   // read-only, for records read back (the loop's thread)
+  std::string refill_error_;               // the last error reading back, logged once
   int64_t cursor_ = 0;                     // every sequence <= cursor_ is acknowledged
   std::mutex log_mutex_;
   std::string last_log_;                   // libmosquitto's last error, logged once

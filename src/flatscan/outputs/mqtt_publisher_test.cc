@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "flatscan/outputs/mqtt_test_util.h"
+#include "flatscan/store/store_test_util.h"
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
@@ -27,22 +28,7 @@ using testing::Broker;
 using testing::Subscriber;
 
 StationRecord Record(int i) {
-  StationRecord r;
-  r.record_id = NewRecordId();
-  r.station_id = "line1";
-  r.source_id = "part" + std::to_string(i);
-  r.recipe_name = "shield";
-  r.recipe_sha256 = std::string(64, 'c');
-  r.left_sha256 = std::string(64, 'a');
-  r.right_sha256 = std::string(64, 'b');
-  r.software_version = "0.1.0";
-  InspectionResult result;
-  result.values = {0.05, 0.05, 0.05};
-  result.coverage = 0.9;
-  InspectionInputs inputs;
-  inputs.id = r.source_id;
-  r.inspection = MeasuredRecord(result, InspectionParams{}, {0.1, 0}, inputs);
-  return r;
+  return testing::TestRecord("part" + std::to_string(i), std::string(64, 'a'), 0.05, "line1");
 }
 
 // Commits record i to the store and hands it to the publisher, as the station does.
@@ -112,6 +98,38 @@ TEST(MqttPublisher, BrokerStoppedAndRestartedMidRunLosesNothing) {
   EXPECT_EQ(subscriber.FirstArrivals(), OneTo(60));  // every record, first arrivals in order
   std::printf("broker stopped: 60 records, %zu messages at the subscriber (%zu repeated)\n",
               subscriber.Sequences().size(), subscriber.Sequences().size() - 60);
+}
+
+// A long outage: at most outbox_in_memory records wait in memory, the rest in the store,
+// read back as the broker acknowledges; also across a restart of the station.
+TEST(MqttPublisher, HoldsABoundedNumberOfRecordsInMemoryDuringAnOutage) {
+  Rig rig("mqtt-bounded");
+  ASSERT_TRUE(rig.broker.Start());
+  const std::string path = (rig.dir.path() / "results.db").string();
+  auto store = OpenSqliteStore(path, true);
+  Subscriber subscriber(rig.port, "line1");
+  ASSERT_TRUE(testing::WaitFor([&] { return subscriber.Subscribed(); }, 10));
+  ASSERT_TRUE(rig.broker.Stop());
+  MqttOptions options = rig.Options();
+  options.store_path = path;
+  options.outbox_in_memory = 10;
+  {
+    MqttPublisher publisher(options, *store);
+    for (int i = 1; i <= 35; ++i) CommitAndPublish(*store, publisher, i);
+    EXPECT_EQ(publisher.InMemory(), 10u);
+    EXPECT_EQ(publisher.Outstanding(), 35u);
+  }  // the station stops during the outage and starts again
+  MqttPublisher publisher(options, *store);
+  EXPECT_EQ(publisher.InMemory(), 10u);
+  EXPECT_EQ(publisher.Outstanding(), 35u);
+  for (int i = 36; i <= 40; ++i) CommitAndPublish(*store, publisher, i);
+  EXPECT_EQ(publisher.InMemory(), 10u);
+  ASSERT_TRUE(rig.broker.Start());
+  EXPECT_TRUE(publisher.Drain(std::chrono::seconds(20)));
+  ASSERT_TRUE(testing::WaitFor([&] { return subscriber.FirstArrivals().size() >= 40; }, 20));
+  EXPECT_EQ(subscriber.FirstArrivals(), OneTo(40));
+  EXPECT_EQ(nlohmann::json::parse(testing::ReadFileBytes(rig.dir.path() / "results.db.mqtt.json")).at("acked_through"),
+            40);
 }
 
 // kill -9 of the broker: what the publisher had not been acknowledged is sent again

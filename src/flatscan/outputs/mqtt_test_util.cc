@@ -4,7 +4,6 @@
 #include <signal.h>
 
 #include <chrono>
-#include <cstdlib>
 #include <fstream>
 #include <set>
 
@@ -24,11 +23,7 @@ Broker::Broker(const fs::path& dir, int port) : dir_(dir), port_(port) {
 
 fs::path Broker::UseSelfSignedTls() {
   const fs::path cert = dir_ / "broker-cert.pem", key = dir_ / "broker-key.pem";
-  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 "
-                              "-addext subjectAltName=IP:127.0.0.1 -keyout " +
-                              key.string() + " -out " + cert.string() + " > " + (dir_ / "openssl.log").string() +
-                              " 2>&1";
-  if (std::system(command.c_str()) != 0) return {};
+  if (!MakeSelfSignedCertificate(cert, key, dir_ / "openssl.log")) return {};
   std::ofstream(dir_ / "mosquitto.conf", std::ios::app) << "certfile " << cert.string() << "\n"
                                                          << "keyfile " << key.string() << "\n";
   return cert;

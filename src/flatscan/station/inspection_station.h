@@ -41,7 +41,7 @@ struct StationCounts {
   int64_t already_recorded = 0;  // pairs skipped: the store had them (a restart)
 };
 
-// Where a committed record goes next (the status file; MQTT, Modbus, the web page
+// Where a committed record goes next (the status file; MQTT, Modbus, the plant store; the web page
 // next). Called in commit order, after the record is durable, from one thread.
 // An exception from a publisher is logged and does not stop the station: the record
 // is safe in the store, which is where a publisher catches up from.

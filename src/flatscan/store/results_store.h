@@ -1,6 +1,7 @@
 #pragma once
 // Where a station's records go: an interface, so that the embedded store (SQLite, a
-// file beside the station) and a plant-wide one (PostgreSQL) are interchangeable.
+// file beside the station) and the plant-wide one (PostgreSQL, postgres_results_store.h)
+// are interchangeable.
 //
 // Contract for every implementation:
 // - Commit() is durable when it returns: the record survives a power cut or kill -9
@@ -47,6 +48,9 @@ class ResultsStore {
                         const std::string& right_sha256) = 0;
   // Calls `visit` with each record in the range, by sequence.
   virtual void ForEach(const TimeRange& range, const std::function<void(const StationRecord&)>& visit) = 0;
+  // Calls `visit` with the records whose sequence is above `after`, by sequence, at most
+  // `limit` of them: an outbox read in bounded batches (the MQTT and plant outputs).
+  virtual void ForEachAfter(int64_t after, int64_t limit, const std::function<void(const StationRecord&)>& visit) = 0;
 };
 
 // The embedded store: an SQLite file (WAL journal, synchronous=FULL: each Commit is one

@@ -160,12 +160,23 @@ class SqliteResultsStore : public ResultsStore {
                 file_);
     s.Bind(1, range.from);
     s.Bind(2, range.to);
+    VisitRows(s, visit);
+  }
+
+  void ForEachAfter(int64_t after, int64_t limit, const std::function<void(const StationRecord&)>& visit) override {
+    Statement s(db_, "SELECT sequence, record_json FROM records WHERE sequence > ?1 ORDER BY sequence LIMIT ?2", file_);
+    s.Bind(1, after);
+    s.Bind(2, limit);
+    VisitRows(s, visit);
+  }
+
+ private:
+  // Rows of (sequence, record_json) as records.
+  void VisitRows(Statement& s, const std::function<void(const StationRecord&)>& visit) {
     while (s.Step()) {
-      const nlohmann::json j = nlohmann::json::parse(s.Text(1), nullptr, false);
       StationRecord record;
       try {
-        if (j.is_discarded()) ThrowInputError("its JSON cannot be parsed");
-        record = StationRecordFromJson(j);
+        record = StationRecordFromJsonText(s.Text(1));
       } catch (const InputError& e) {
         throw StoreError(fmt::format("{}: record #{}: {}", file_, s.Int(0), e.what()));
       }
@@ -173,7 +184,6 @@ class SqliteResultsStore : public ResultsStore {
     }
   }
 
- private:
   void Execute(const char* sql, const char* what) {
     char* message = nullptr;
     if (sqlite3_exec(db_, sql, nullptr, nullptr, &message) != SQLITE_OK) {
@@ -307,7 +317,7 @@ class SqliteResultsStore : public ResultsStore {
     s.BindOptional(17, m, in.uncertainty.expanded_mm);
     s.BindOptional(18, !m, in.error);
     // Text that is not UTF-8 (a Latin-1 file name) is stored with U+FFFD, not refused.
-    s.Bind(19, StationRecordToJson(r).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+    s.Bind(19, StationRecordToJsonText(r));
     s.Step();
   }
 

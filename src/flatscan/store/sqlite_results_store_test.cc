@@ -9,36 +9,17 @@
 #include <gtest/gtest.h>
 
 #include "flatscan/store/results_store.h"
+#include "flatscan/store/store_test_util.h"
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
 namespace {
 namespace fs = std::filesystem;
 
-StationRecord Record(const std::string& source_id, const std::string& left_sha256, double flatness_mm) {
-  StationRecord r;
-  r.record_id = NewRecordId();
-  r.station_id = "test";
-  r.source_id = source_id;
-  r.recipe_name = "shield";
-  r.recipe_sha256 = std::string(64, 'c');
-  r.left_sha256 = left_sha256;
-  r.right_sha256 = std::string(64, 'e');
-  r.software_version = "0.1.0";
-  InspectionResult result;
-  result.values = {flatness_mm, flatness_mm, flatness_mm};
-  result.coverage = 0.9;
-  InspectionInputs inputs;
-  inputs.id = source_id;
-  r.inspection = flatness_mm >= 0 ? MeasuredRecord(result, InspectionParams{}, {0.1, 0}, inputs)
-                                  : NotMeasuredRecord("no part in the images", InspectionParams{}, {0.1, 0}, inputs);
-  return r;
-}
+using testing::AllRecords;
 
-std::vector<StationRecord> All(ResultsStore& store, const TimeRange& range = {}) {
-  std::vector<StationRecord> out;
-  store.ForEach(range, [&](const StationRecord& r) { out.push_back(r); });
-  return out;
+StationRecord Record(const std::string& source_id, const std::string& left_sha256, double flatness_mm) {
+  return testing::TestRecord(source_id, left_sha256, flatness_mm);
 }
 
 // A PRAGMA's value as the file reports it.
@@ -68,7 +49,7 @@ TEST(SqliteResultsStore, CommitsInSequenceAndReadsBackEveryKey) {
     EXPECT_FALSE(store->Contains("b", std::string(64, '1'), std::string(64, 'e')));  // same id, other image
   }
   auto store = OpenSqliteStore(file.string(), true);  // a station restarted: nothing lost
-  const std::vector<StationRecord> read = All(*store);
+  const std::vector<StationRecord> read = AllRecords(*store);
   ASSERT_EQ(read.size(), 3u);
   for (size_t i = 0; i < read.size(); ++i) {
     EXPECT_EQ(read[i].sequence, int64_t(i + 1));
@@ -82,6 +63,9 @@ TEST(SqliteResultsStore, CommitsInSequenceAndReadsBackEveryKey) {
   StationRecord d = Record("d", std::string(64, '4'), 0.01);
   store->Commit(d);
   EXPECT_EQ(d.sequence, 4);  // sequence numbers continue after a restart
+  std::vector<int64_t> batch;  // the outbox read: after #1, at most 2
+  store->ForEachAfter(1, 2, [&](const StationRecord& r) { batch.push_back(r.sequence); });
+  EXPECT_EQ(batch, (std::vector<int64_t>{2, 3}));
   EXPECT_EQ(Pragma(file, "journal_mode"), "wal");
   EXPECT_EQ(Pragma(file, "user_version"), std::to_string(kSqliteStoreSchemaVersion));
 }
@@ -102,7 +86,7 @@ TEST(SqliteResultsStore, ARecordOfTheSamePairIsNotCommittedTwiceAndOneStationHol
     EXPECT_EQ(std::string(e.what()),
               file.string() + ": another station is using this store (it holds " + file.string() + ".lock)");
   }
-  EXPECT_EQ(All(*OpenSqliteStore(file.string(), false)).size(), 1u);  // a reader is welcome
+  EXPECT_EQ(AllRecords(*OpenSqliteStore(file.string(), false)).size(), 1u);  // a reader is welcome
   store.reset();
   EXPECT_NO_THROW(OpenSqliteStore(file.string(), true));  // released with the store
 }
@@ -114,12 +98,12 @@ TEST(SqliteResultsStore, TimeRangesIncludeFromAndExcludeTo) {
                                         Record("c", std::string(64, '3'), 0.05)};
   for (StationRecord& r : records) store->Commit(r);
   const std::string t1 = records[1].time_utc;
-  std::vector<StationRecord> from = All(*store, {t1, ""});
+  std::vector<StationRecord> from = AllRecords(*store, {t1, ""});
   ASSERT_FALSE(from.empty());
   EXPECT_GE(from.front().time_utc, t1);
-  for (const StationRecord& r : All(*store, {"", t1})) EXPECT_LT(r.time_utc, t1);
-  EXPECT_EQ(All(*store, {"", t1}).size() + from.size(), 3u);
-  EXPECT_TRUE(All(*store, {"2000-01-01T00:00:00.000Z", "2000-01-02T00:00:00.000Z"}).empty());
+  for (const StationRecord& r : AllRecords(*store, {"", t1})) EXPECT_LT(r.time_utc, t1);
+  EXPECT_EQ(AllRecords(*store, {"", t1}).size() + from.size(), 3u);
+  EXPECT_TRUE(AllRecords(*store, {"2000-01-01T00:00:00.000Z", "2000-01-02T00:00:00.000Z"}).empty());
 }
 
 TEST(SqliteResultsStore, RefusesWhatItCannotUse) {

@@ -40,6 +40,16 @@ json StationRecordToJson(const StationRecord& r) {
   return j;
 }
 
+std::string StationRecordToJsonText(const StationRecord& record) {
+  return StationRecordToJson(record).dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+StationRecord StationRecordFromJsonText(const std::string& text) {
+  const json j = json::parse(text, nullptr, false);
+  if (j.is_discarded()) ThrowInputError("its JSON cannot be parsed");
+  return StationRecordFromJson(j);
+}
+
 StationRecord StationRecordFromJson(const json& j) {
   StationRecord r;
   r.inspection = RecordFromJson(j);

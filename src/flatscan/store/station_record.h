@@ -43,6 +43,11 @@ struct StationRecord {
 nlohmann::json StationRecordToJson(const StationRecord& record);
 // The inverse; throws InputError naming the key and what was expected.
 StationRecord StationRecordFromJson(const nlohmann::json& json);
+// The record as one line of JSON text (how stores and outputs carry it): text that is
+// not UTF-8 (a Latin-1 file name) is written as U+FFFD rather than refused.
+std::string StationRecordToJsonText(const StationRecord& record);
+// The inverse; throws InputError when the text is not JSON or not a record.
+StationRecord StationRecordFromJsonText(const std::string& text);
 
 // A random UUID (version 4), lower-case: "1b4e28ba-2fa1-4d2b-883f-0016d3cca427".
 std::string NewRecordId();

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <ctime>
 #include <random>
 #include <fstream>
@@ -113,6 +114,14 @@ int BackgroundProcess::Wait(double timeout_s) {
   if (!ended) return -1;  // the destructor kills it
   pid_ = -1;
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+bool MakeSelfSignedCertificate(const std::filesystem::path& cert, const std::filesystem::path& key,
+                               const std::filesystem::path& log) {
+  const std::string command = "openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 "
+                              "-addext subjectAltName=IP:127.0.0.1 -keyout '" +
+                              key.string() + "' -out '" + cert.string() + "' > '" + log.string() + "' 2>&1";
+  return std::system(command.c_str()) == 0;
 }
 
 BackgroundFlatscan::BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log)

@@ -55,6 +55,12 @@ class BackgroundFlatscan : public BackgroundProcess {
   BackgroundFlatscan(const std::vector<std::string>& args, const std::filesystem::path& log);
 };
 
+// A self-signed certificate for 127.0.0.1 (RSA 2048, two days; `cert` is also the CA a
+// client trusts) and its unencrypted key, made with the openssl tool (its output to
+// `log`); whether it worked.
+bool MakeSelfSignedCertificate(const std::filesystem::path& cert, const std::filesystem::path& key,
+                               const std::filesystem::path& log);
+
 // A TCP port on 127.0.0.1 that was free a moment ago (20000-32000, below the ephemeral range).
 int FreeLoopbackPort();
 // Whether something accepts TCP connections on 127.0.0.1:`port`.
