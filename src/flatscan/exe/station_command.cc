@@ -90,11 +90,11 @@ class StationCommand : public Command {
     sub_->add_option("--log", log_, "rotating log file (default: the store's name with .log)");
     sub_->add_option("--modbus", modbus_,
                      "Modbus TCP server for the PLC on ADDR:PORT (or PORT: on 127.0.0.1); the register map is in "
-                     "docs/line-outputs.md");
+                     "docs/plc.md");
     sub_->add_option("--trigger", trigger_,
-                     "plc: take a pair from the source only when the PLC triggers (Modbus register 12; needs "
+                     "software: take a pair from the source only when the PLC triggers (Modbus register 12; needs "
                      "--modbus); with a replay or a folder, to commission the PLC's handshake before the cameras")
-        ->check(CLI::IsMember({"plc"}));
+        ->check(CLI::IsMember({"software"}));
     sub_->add_option("--mqtt", mqtt_, "MQTT broker HOST:PORT: each record on flatscan/<station>/result (QoS 1), the "
                                       "state retained on flatscan/<station>/state (docs/line-outputs.md)");
     sub_->add_option("--mqtt-user", mqtt_user_, "MQTT user name");
@@ -118,7 +118,8 @@ class StationCommand : public Command {
     folder.half_pair_timeout = std::chrono::milliseconds(std::llround(1000 * half_pair_timeout_s_));
     folder.keep_done = keep_done_;
     const std::unique_ptr<PairSource> source = MakePairSource(source_, folder);
-    if (!trigger_.empty() && modbus_.empty()) ThrowInputError("--trigger plc needs --modbus (the PLC triggers there)");
+    if (!trigger_.empty() && modbus_.empty())
+      ThrowInputError("--trigger software needs --modbus (the PLC triggers there)");
     std::optional<TriggeredSource> triggered;
     if (!trigger_.empty()) triggered.emplace(*source);
     LogToFile(log_.empty() ? Beside(store_, ".log") : log_);

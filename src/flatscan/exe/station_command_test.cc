@@ -449,7 +449,7 @@ TEST_F(StationCommand, ServesEveryVerdictToAPlcOverModbus) {
   EXPECT_NE(bad.err.find("--modbus '127.0.0.1:0x50': expected HOST:PORT"), std::string::npos) << bad.err;
 }
 
-// --trigger plc: the PLC starts each part (register 12). Nothing is measured before a
+// --trigger software: the PLC starts each part (register 12). Nothing is measured before a
 // trigger; after each, the first read shows busy or already the new result, never a
 // ready station with nothing to show; then the PLC reads and acknowledges the result.
 TEST_F(StationCommand, ATriggeredStationMeasuresOnePairPerPlcTrigger) {
@@ -457,7 +457,7 @@ TEST_F(StationCommand, ATriggeredStationMeasuresOnePairPerPlcTrigger) {
   testing::CommandResult run;
   std::thread station([&] {
     run = testing::RunFlatscan(
-        fmt::format("station --recipe {} --source pairs:{} --store {} --modbus {} --trigger plc --until-idle 4",
+        fmt::format("station --recipe {} --source pairs:{} --store {} --modbus {} --trigger software --until-idle 4",
                     (Dir() / "shield.yml").string(), (Dir() / "all.csv").string(), (Dir() / "trigger.db").string(),
                     port),
         120);
@@ -492,9 +492,9 @@ TEST_F(StationCommand, ATriggeredStationMeasuresOnePairPerPlcTrigger) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(sequences, (std::vector<int>{1, 2, 3, 4, 5}));
   EXPECT_EQ(Results("trigger.db").size(), 5u);
-  const auto lone = Station("good.csv", "trigger-bad.db", "--trigger plc");
+  const auto lone = Station("good.csv", "trigger-bad.db", "--trigger software");
   EXPECT_EQ(lone.exit_code, 2);
-  EXPECT_NE(lone.err.find("--trigger plc needs --modbus (the PLC triggers there)"), std::string::npos) << lone.err;
+  EXPECT_NE(lone.err.find("--trigger software needs --modbus (the PLC triggers there)"), std::string::npos) << lone.err;
 }
 
 }  // namespace

@@ -211,7 +211,7 @@ void ModbusServer::AfterWriteLocked(const uint8_t* request, int header) {
       state_ = ModbusStationState::kBusy;
     } else {
       spdlog::warn("Modbus: trigger refused: {}", trigger_ ? "the station is not ready"
-                                                           : "the station's source is not triggered (--trigger plc)");
+                                                           : "the station's source is not triggered (--trigger software)");
     }
     r[kTrigger] = 0;
   }

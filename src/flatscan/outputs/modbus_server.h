@@ -1,7 +1,7 @@
 #pragma once
 // The PLC output: a Modbus TCP server in the station (libmodbus). The PLC reads holding
-// registers (function 3) and writes two of them (functions 6 and 16); the table with
-// units and encodings is in docs/line-outputs.md ("Modbus register map").
+// registers (function 3) and writes three of them (functions 6 and 16); the table with
+// units and encodings is in docs/plc.md (the controls engineer's page).
 //
 // Handshake: every committed record joins a queue of results the PLC has not
 // acknowledged; the registers show the oldest of them. The PLC reads it, acts on it and
@@ -13,7 +13,7 @@
 // therefore never overwritten before the PLC has read it, unless it fell behind by
 // kMaxPending parts.
 //
-// With a triggered source (--trigger plc) the PLC starts each part: it writes 1 to
+// With a triggered source (--trigger software) the PLC starts each part: it writes 1 to
 // kTrigger, the station shows busy and takes the next pair (with cameras: the capture),
 // and the result is then shown as above: trigger -> busy -> sequence changes -> the PLC
 // acknowledges.
@@ -46,7 +46,7 @@ enum ModbusRegister : int {
   kPending = 9,          // results not yet acknowledged, the shown one included
   kAcknowledge = 10,     // written by the PLC: the low word of the shown sequence
   kDropped = 11,         // results dropped unacknowledged (queue full), saturating at 65535
-  kTrigger = 12,         // written by the PLC: 1 takes the next pair (--trigger plc); the station clears it (0)
+  kTrigger = 12,         // written by the PLC: 1 takes the next pair (--trigger software); the station clears it (0)
   kRegisterCount = 13,
 };
 

@@ -1,6 +1,6 @@
 #pragma once
 // A source that hands out a pair only when triggered: one trigger, one pair (`flatscan
-// station --trigger plc`: the PLC triggers through the Modbus register map). With cameras
+// station --trigger software`: the PLC triggers through the Modbus register map). With cameras
 // the trigger is the capture; with a replay or a folder it releases the next pair, so that
 // a PLC's handshake can be commissioned and tested before the cameras are there.
 #include <condition_variable>
