@@ -3,7 +3,10 @@
 #include <arv.h>
 
 #include <algorithm>
+#include <map>
 #include <mutex>
+#include <set>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -28,15 +31,74 @@ void Check(GError* error, const std::string& what) {
   ThrowInputError("{}: {}", what, message);
 }
 
+// A fake camera's fill and the tag of each buffer given to it by a trigger.
+struct FakeContext {
+  FakeFill fill;
+  std::mutex mutex;
+  std::map<ArvBuffer*, uint64_t> tags;
+  bool count_frames = false;  // free running as on a line: the n-th frame gets tag n
+  uint64_t frames = 0;
+};
+
 // The fake camera's fill callback (on its stream thread): the caller's FakeFill.
 void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat) {
+  auto& fake = *static_cast<FakeContext*>(data);
   const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
+  uint64_t tag = 0;
+  {
+    std::lock_guard lock(fake.mutex);
+    if (fake.count_frames) tag = ++fake.frames;
+    else if (const auto it = fake.tags.find(buffer); it != fake.tags.end()) tag = it->second;
+  }
   // The only public way to the buffer's memory is const; the fake camera owns it here.
   auto* pixels = static_cast<uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-  (*static_cast<FakeFill*>(data))(width, height, pixels, arv_buffer_get_frame_id(buffer));
+  fake.fill(width, height, pixels, tag);
 }
 
 constexpr uint8_t kDarkBelow = 13;  // 5% of full scale
+// The fake camera's frame period in triggered acquisition: a trigger waits at most this
+// long for its frame.
+constexpr guint32 kFakeFramePeriodUs = 4000;
+
+std::string BufferProblem(ArvBufferStatus status) {
+  switch (status) {
+    case ARV_BUFFER_STATUS_SUCCESS: return "";
+    case ARV_BUFFER_STATUS_CLEARED: return "buffer cleared";
+    case ARV_BUFFER_STATUS_TIMEOUT: return "timeout while the frame arrived";
+    case ARV_BUFFER_STATUS_MISSING_PACKETS: return "missing packets";
+    case ARV_BUFFER_STATUS_WRONG_PACKET_ID: return "wrong packet id";
+    case ARV_BUFFER_STATUS_SIZE_MISMATCH: return "size mismatch (the frame did not fit the buffer)";
+    case ARV_BUFFER_STATUS_FILLING: return "still filling";
+    case ARV_BUFFER_STATUS_ABORTED: return "aborted";
+    default: return fmt::format("status {}", int(status));
+  }
+}
+
+// A stream and its buffers, shared with the frames still held: a frame's buffer comes
+// back here when released. A fake camera's buffers wait in `spare` until a trigger
+// (`per_trigger`); a real camera's go straight back to the stream.
+struct StreamState {
+  ArvStream* stream = nullptr;
+  bool per_trigger = false;
+  FakeContext* fake_context = nullptr;  // the camera's, which outlives its streams' use
+  std::mutex mutex;
+  std::vector<ArvBuffer*> spare;
+  std::set<ArvBuffer*> undersized;  // made by FakeTriggerFault::incomplete, freed on return
+
+  ~StreamState() {
+    for (ArvBuffer* b : spare) g_object_unref(b);
+    if (stream) g_object_unref(stream);  // frees the buffers it holds
+  }
+  void Return(ArvBuffer* buffer) {
+    if (!per_trigger) {
+      arv_stream_push_buffer(stream, buffer);
+      return;
+    }
+    std::lock_guard lock(mutex);
+    if (undersized.erase(buffer)) g_object_unref(buffer);
+    else spare.push_back(buffer);
+  }
+};
 
 }  // namespace
 
@@ -80,11 +142,19 @@ class AravisCamera::Impl {
  public:
   Impl(ArvCamera* camera, std::string name) : camera_(camera), name_(std::move(name)) {}
   ~Impl() {
+    StopAcquisition();
+    stream_.reset();
     if (camera_) g_object_unref(camera_);
+  }
+  void StopAcquisition() {
+    if (!stream_) return;
+    arv_camera_stop_acquisition(camera_, nullptr);
   }
   ArvCamera* camera_;
   std::string name_;
-  std::unique_ptr<FakeFill> fill_;  // the fake camera's, alive as long as the camera
+  std::unique_ptr<FakeContext> fake_;  // the fake camera's, alive as long as the camera
+  guint32 fake_period_us_ = kFakeFramePeriodUs;
+  std::shared_ptr<StreamState> stream_;
 };
 
 AravisCamera::AravisCamera(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -120,8 +190,9 @@ std::unique_ptr<AravisCamera> AravisCamera::OpenFake(const std::string& serial, 
   arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_SENSOR_HEIGHT, guint32(std::max(height, 2048)));
   arv_camera_set_region(camera, 0, 0, width, height, &error);
   Check(error, fmt::format("fake camera '{}': {} x {}", serial, width, height));
-  impl->fill_ = std::make_unique<FakeFill>(std::move(fill));
-  arv_fake_camera_set_fill_pattern(fake, FillFake, impl->fill_.get());
+  impl->fake_ = std::make_unique<FakeContext>();
+  impl->fake_->fill = std::move(fill);
+  arv_fake_camera_set_fill_pattern(fake, FillFake, impl->fake_.get());
   return std::unique_ptr<AravisCamera>(new AravisCamera(std::move(impl)));
 }
 
@@ -177,6 +248,171 @@ GrabStatistics AravisCamera::TestGrab(int frames, std::chrono::milliseconds time
                     stats.timeouts + stats.incomplete, stats.timeouts, timeout.count(), stats.incomplete);
   if (stats.frames > 1 && last_ns > first_ns) stats.frames_per_second = (stats.frames - 1) * 1e9 / double(last_ns - first_ns);
   return stats;
+}
+
+bool AravisCamera::IsFake() const { return impl_->fake_ != nullptr; }
+
+void AravisCamera::Start(const AcquisitionSettings& settings) {
+  ArvCamera* camera = impl_->camera_;
+  const std::string& name = impl_->name_;
+  FLATSCAN_CHECK(!impl_->stream_);
+  FLATSCAN_CHECK(settings.buffers >= 1);
+  GError* error = nullptr;
+  arv_camera_set_pixel_format(camera, ARV_PIXEL_FORMAT_MONO_8, &error);
+  Check(error, fmt::format("camera {}: cannot set pixel format Mono8", name));
+  arv_camera_set_acquisition_mode(camera, ARV_ACQUISITION_MODE_CONTINUOUS, &error);
+  Check(error, fmt::format("camera {}: cannot set continuous acquisition", name));
+  SetExposureAndGain(settings.exposure_us, settings.gain_db);
+  auto state = std::make_shared<StreamState>();
+  state->fake_context = impl_->fake_.get();
+  if (IsFake()) {
+    // It ignores triggers. Software: a short frame period, and one buffer per trigger.
+    // Line0: free running at the line's rate, every buffer queued (two fakes tick
+    // together: their ticks are multiples of the period on the host clock).
+    const bool line = settings.trigger == TriggerSource::kLine0;
+    FLATSCAN_CHECK(!line || (settings.fake_line_hz >= 1 && settings.fake_line_hz <= 100));
+    state->per_trigger = !line;
+    impl_->fake_->count_frames = line;
+    ArvFakeCamera* fake = arv_fake_device_get_fake_camera(ARV_FAKE_DEVICE(arv_camera_get_device(camera)));
+    impl_->fake_period_us_ = line ? guint32(1e6 / settings.fake_line_hz) : kFakeFramePeriodUs;
+    arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_ACQUISITION_FRAME_PERIOD_US, impl_->fake_period_us_);
+  } else {
+    arv_camera_set_trigger(camera, settings.trigger == TriggerSource::kLine0 ? "Line0" : "Software", &error);
+    Check(error, fmt::format("camera {}: cannot set the trigger", name));
+  }
+  const guint payload = arv_camera_get_payload(camera, &error);
+  Check(error, fmt::format("camera {}: cannot read the payload size", name));
+  state->stream = arv_camera_create_stream(camera, nullptr, nullptr, &error);
+  Check(error, fmt::format("camera {}: cannot open a stream", name));
+  for (int i = 0; i < settings.buffers; ++i) {
+    ArvBuffer* buffer = arv_buffer_new_allocate(payload);
+    if (IsFake()) state->spare.push_back(buffer);  // until a trigger, or QueueFakeLine()
+    else arv_stream_push_buffer(state->stream, buffer);
+  }
+  arv_camera_start_acquisition(camera, &error);
+  Check(error, fmt::format("camera {}: cannot start acquisition", name));
+  impl_->stream_ = std::move(state);
+}
+
+// Aravis 0.8 writes a value outside the feature's bounds as it is (the fake camera took
+// a gain of 40 on its 0-10 GainRaw): the bounds are checked here.
+void AravisCamera::SetExposureAndGain(std::optional<double> exposure_us, std::optional<double> gain_db) {
+  using Bounds = void (*)(ArvCamera*, double*, double*, GError**);
+  using Setter = void (*)(ArvCamera*, double, GError**);
+  const auto set = [&](double value, Bounds bounds, Setter setter, const char* what, const char* unit) {
+    const std::string context = fmt::format("camera {}: cannot set the {} to {} {}", impl_->name_, what, value, unit);
+    GError* error = nullptr;
+    double lo = 0, hi = 0;
+    bounds(impl_->camera_, &lo, &hi, &error);
+    Check(error, context);
+    if (value < lo || value > hi) ThrowInputError("{}: the camera takes {} to {} {}", context, lo, hi, unit);
+    setter(impl_->camera_, value, &error);
+    Check(error, context);
+  };
+  if (exposure_us)
+    set(*exposure_us, arv_camera_get_exposure_time_bounds, arv_camera_set_exposure_time, "exposure time", "us");
+  if (gain_db) set(*gain_db, arv_camera_get_gain_bounds, arv_camera_set_gain, "gain", "dB");
+}
+
+double AravisCamera::ExposureUs() const {
+  GError* error = nullptr;
+  const double value = arv_camera_get_exposure_time(impl_->camera_, &error);
+  Check(error, fmt::format("camera {}: cannot read the exposure time", impl_->name_));
+  return value;
+}
+
+double AravisCamera::GainDb() const {
+  GError* error = nullptr;
+  const double value = arv_camera_get_gain(impl_->camera_, &error);
+  Check(error, fmt::format("camera {}: cannot read the gain", impl_->name_));
+  return value;
+}
+
+void AravisCamera::Stop() {
+  impl_->StopAcquisition();
+  impl_->stream_.reset();  // the frames still held keep the stream until released
+}
+
+void AravisCamera::Trigger(uint64_t tag, const FakeTriggerFault& fault) {
+  FLATSCAN_CHECK(impl_->stream_);
+  StreamState& state = *impl_->stream_;
+  if (!state.per_trigger) {
+    if (IsFake()) return;  // a fake on its "line": it triggers itself
+    GError* error = nullptr;
+    arv_camera_software_trigger(impl_->camera_, &error);
+    Check(error, fmt::format("camera {}: software trigger refused", impl_->name_));
+    return;
+  }
+  if (fault.drop) return;
+  if (fault.delay.count() > 0) std::this_thread::sleep_for(fault.delay);
+  ArvBuffer* buffer = nullptr;
+  {
+    std::lock_guard lock(state.mutex);
+    if (fault.incomplete) {
+      buffer = arv_buffer_new_allocate(16);
+      state.undersized.insert(buffer);
+    } else if (!state.spare.empty()) {
+      buffer = state.spare.back();
+      state.spare.pop_back();
+    }
+  }
+  if (!buffer) return;  // every buffer is held: the frame is lost, as on a camera that overruns
+  {
+    std::lock_guard lock(state.fake_context->mutex);
+    state.fake_context->tags[buffer] = tag;
+  }
+  arv_stream_push_buffer(state.stream, buffer);
+}
+
+std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wait) {
+  FLATSCAN_CHECK(impl_->stream_);
+  const std::shared_ptr<StreamState> state = impl_->stream_;
+  ArvBuffer* buffer = wait.count() > 0 ? arv_stream_timeout_pop_buffer(state->stream, guint64(wait.count()))
+                                       : arv_stream_try_pop_buffer(state->stream);
+  if (!buffer) return std::nullopt;
+  CameraFrame frame;
+  frame.memory = std::shared_ptr<const void>(buffer, [state](const void* b) {
+    state->Return(static_cast<ArvBuffer*>(const_cast<void*>(b)));
+  });
+  frame.timestamp_ns = int64_t(arv_buffer_get_system_timestamp(buffer));
+  // A buffer the camera could not fill (a fake's too-small buffer) has no timestamp:
+  // it arrived now.
+  if (frame.timestamp_ns == 0) frame.timestamp_ns = int64_t(g_get_real_time()) * 1000;
+  frame.frame_id = arv_buffer_get_frame_id(buffer);
+  frame.problem = BufferProblem(arv_buffer_get_status(buffer));
+  if (!frame.problem.empty()) return frame;
+  const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
+  const ArvPixelFormat format = arv_buffer_get_image_pixel_format(buffer);
+  size_t size = 0;
+  const void* data = arv_buffer_get_data(buffer, &size);
+  // The fake camera reports size 0 for a frame its callback filled (docs/cameras.md).
+  if (format != ARV_PIXEL_FORMAT_MONO_8 || width <= 0 || height <= 0 ||
+      (size != 0 && size < size_t(width) * size_t(height))) {
+    frame.problem = fmt::format("unexpected frame: {} x {}, pixel format 0x{:08x}, {} bytes (expected Mono8)", width,
+                                height, uint32_t(format), size);
+    return frame;
+  }
+  // cv::Mat over the buffer: the boundary detector reads the camera's memory.
+  frame.image = cv::Mat1b(height, width, static_cast<uint8_t*>(const_cast<void*>(data)));
+  return frame;
+}
+
+void AravisCamera::QueueFakeLine() {
+  FLATSCAN_CHECK(impl_->stream_ && IsFake() && !impl_->stream_->per_trigger);
+  StreamState& state = *impl_->stream_;
+  std::lock_guard lock(state.mutex);
+  for (ArvBuffer* buffer : state.spare) arv_stream_push_buffer(state.stream, buffer);
+  state.spare.clear();
+}
+
+void AravisCamera::AwayFromFakeTick(std::chrono::microseconds margin) const {
+  if (!IsFake()) return;
+  const guint64 period = impl_->fake_period_us_;
+  const guint64 phase = guint64(g_get_real_time()) % period;  // the fake's ticks: multiples of the period
+  const guint64 m = guint64(margin.count());
+  if (phase >= m && phase + m <= period) return;
+  const guint64 until = phase < m ? m - phase : period - phase + m;
+  std::this_thread::sleep_for(std::chrono::microseconds(until));
 }
 
 }  // namespace flatscan

@@ -1,8 +1,8 @@
 #pragma once
 // GenICam cameras through Aravis 0.8 (Debian libaravis-dev): the open library for GigE
-// Vision and USB3 Vision cameras on Linux. This is the acquisition layer's first part:
-// listing the cameras and a test grab (`flatscan cameras`); the station's camera source
-// builds on it (docs/cameras.md).
+// Vision and USB3 Vision cameras on Linux. Listing the cameras and a test grab
+// (`flatscan cameras`), and triggered acquisition for the station's camera source
+// (acquisition/camera_pair_source.h; docs/cameras.md).
 //
 // Aravis's types stay in the .cc: callers see plain C++.
 //
@@ -14,10 +14,12 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 namespace flatscan {
 
@@ -47,8 +49,42 @@ struct GrabStatistics {
   double dark_share = 0;         // share of pixels below 13, 5% of full scale
 };
 
-// Fills a Mono8 frame of the fake camera: `pixels` has width * height bytes.
-using FakeFill = std::function<void(int width, int height, uint8_t* pixels, uint64_t frame_id)>;
+// Fills a Mono8 frame of the fake camera: `pixels` has width * height bytes; `tag` is the
+// value given to the Trigger() that queued the buffer (0 in a test grab).
+using FakeFill = std::function<void(int width, int height, uint8_t* pixels, uint64_t tag)>;
+
+// One frame as the camera delivered it. `image` points into the camera's buffer (no
+// copy); the buffer goes back to the camera once the last copy of `memory` is gone.
+struct CameraFrame {
+  cv::Mat1b image;                     // empty when the frame is not complete
+  std::shared_ptr<const void> memory;  // holds the buffer
+  // Host clock (UTC, ns) when the frame arrived (Aravis's system timestamp): the two
+  // cameras' device clocks are not synchronised, the host's is one clock for both.
+  int64_t timestamp_ns = 0;
+  uint64_t frame_id = 0;
+  std::string problem;  // empty for a complete frame, else why not ("missing packets", ...)
+};
+
+// Where a frame's exposure starts (GenICam TriggerSelector FrameStart).
+enum class TriggerSource { kSoftware, kLine0 };
+
+struct AcquisitionSettings {
+  TriggerSource trigger = TriggerSource::kSoftware;
+  // The recipe's (station/recipe.h `camera:`); nullopt: leave the camera's own setting.
+  std::optional<double> exposure_us, gain_db;
+  int buffers = 8;         // frames the camera can hold before the station takes them
+  // A fake camera has no input line: with kLine0 it runs free at this rate, every frame
+  // a "pulse" (both fakes tick together), its n-th frame filled with tag n.
+  double fake_line_hz = 10;
+};
+
+// Faults a fake camera's trigger can be told to make (tests, `aravis-fake:`); a real
+// camera ignores them.
+struct FakeTriggerFault {
+  bool drop = false;               // no frame for this trigger (a lost frame)
+  std::chrono::milliseconds delay{0};  // the frame is exposed this much later (Trigger blocks as long)
+  bool incomplete = false;         // the buffer is too small: Aravis reports it incomplete
+};
 
 class AravisCamera {
  public:
@@ -68,6 +104,32 @@ class AravisCamera {
   // waiting at most `timeout` for each; throws InputError when the camera refuses a
   // setting or gives no frame at all.
   GrabStatistics TestGrab(int frames, std::chrono::milliseconds timeout);
+
+  // Triggered acquisition in Mono8: sets pixel format, exposure, gain and trigger and
+  // queues the buffers. Throws InputError naming the camera and the setting it refused.
+  // A fake camera ignores triggers (Aravis 0.8.26): it fills a buffer at every tick of
+  // its frame period (set to 4 ms here), so it is given one buffer per Trigger().
+  void Start(const AcquisitionSettings& settings);
+  void Stop();  // idempotent; frames still held stay valid
+  // GenICam ExposureTime (us) and Gain (dB on an SFNC camera; the fake's GainRaw is a
+  // plain number), each when given; while acquiring too (the next frames have them).
+  // Throws InputError naming the camera, the value and the camera's reason.
+  void SetExposureAndGain(std::optional<double> exposure_us, std::optional<double> gain_db);
+  double ExposureUs() const;  // as the camera reports them
+  double GainDb() const;
+  // A software trigger now (any thread); `tag` reaches a fake camera's fill. Throws
+  // InputError when the camera refuses it (disconnected).
+  void Trigger(uint64_t tag = 0, const FakeTriggerFault& fault = {});
+  // The next frame, waiting at most `wait`; nullopt when none came.
+  std::optional<CameraFrame> NextFrame(std::chrono::microseconds wait);
+  bool IsFake() const;
+  // A fake camera started with kLine0 holds its buffers until this queues them all (the
+  // source queues both fakes' between two ticks, so that their n-th frames match).
+  void QueueFakeLine();
+  // A fake camera's frames come at multiples of its frame period (host clock): waits
+  // until the next tick is at least `margin` away, so that two fake cameras given a
+  // buffer each now fill them at the same tick. Returns at once for a real camera.
+  void AwayFromFakeTick(std::chrono::microseconds margin) const;
 
  private:
   class Impl;

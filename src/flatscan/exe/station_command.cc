@@ -16,20 +16,22 @@
 #include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/spdlog.h>
 
+#include "flatscan/acquisition/camera_pair_source.h"
 #include "flatscan/exe/cli.h"
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/number_checks.h"
 #include "flatscan/outputs/modbus_server.h"
 #include "flatscan/outputs/mqtt_publisher.h"
 #include "flatscan/outputs/plant_forwarder.h"
-#include "flatscan/station/triggered_source.h"
-#include "flatscan/store/postgres_results_store.h"
-#include "flatscan/station/pair_source.h"
-#include "flatscan/station/recipe.h"
-#include "flatscan/store/results_store.h"
 #include "flatscan/station/image_archive.h"
 #include "flatscan/station/inspection_station.h"
+#include "flatscan/station/pair_source.h"
+#include "flatscan/station/rate_trigger.h"
+#include "flatscan/station/recipe.h"
 #include "flatscan/station/status_file.h"
+#include "flatscan/station/triggered_source.h"
+#include "flatscan/store/postgres_results_store.h"
+#include "flatscan/store/results_store.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -69,8 +71,9 @@ class StationCommand : public Command {
                  "--until-idle 5\nThen:    flatscan results --store results.db --csv\nSee docs/station.md.");
     sub_->add_option("--recipe", recipes_, "recipe file (YAML; repeat for several: the first is active)")->required();
     sub_->add_option("--source", source_,
-                     "where pairs come from: folder:DIR (ID_left.png + ID_right.png appearing in DIR, watched) or "
-                     "pairs:FILE.csv (replay a pairs file)")
+                     "where pairs come from: folder:DIR (ID_left.png + ID_right.png appearing in DIR, watched), "
+                     "pairs:FILE.csv (replay a pairs file), cameras:LEFT,RIGHT (two GenICam cameras by id or serial, "
+                     "docs/cameras.md) or aravis-fake:DIR (Aravis's fake cameras showing a simulated dataset's pairs)")
         ->required();
     sub_->add_option("--half-pair-timeout", half_pair_timeout_s_,
                      "folder: seconds after which one image without its partner gets a not-measured record")
@@ -92,9 +95,21 @@ class StationCommand : public Command {
                      "Modbus TCP server for the PLC on ADDR:PORT (or PORT: on 127.0.0.1); the register map is in "
                      "docs/plc.md");
     sub_->add_option("--trigger", trigger_,
-                     "software: take a pair from the source only when the PLC triggers (Modbus register 12; needs "
-                     "--modbus); with a replay or a folder, to commission the PLC's handshake before the cameras")
-        ->check(CLI::IsMember({"software"}));
+                     "software: a pair per trigger, fired at --trigger-rate or by the PLC (Modbus register 12, "
+                     "--modbus); with a replay or a folder, to commission the PLC's handshake before the cameras. "
+                     "line0: cameras only, both wired to one trigger line")
+        ->check(CLI::IsMember({"software", "line0"}));
+    sub_->add_option("--trigger-rate", trigger_rate_hz_, "software triggers at this rate (per second)")
+        ->check(RealIn(0.01, 1000));
+    sub_->add_option("--frame-timeout", frame_timeout_ms_,
+                     "cameras: milliseconds a trigger waits for its frames (then: not measured)")
+        ->default_val(frame_timeout_ms_)
+        ->check(IntegerIn(10, 60000));
+    sub_->add_option("--max-skew", max_skew_ms_,
+                     "cameras: frames of one trigger further apart than this (ms) are not measured: cameras out of "
+                     "sync")
+        ->default_val(max_skew_ms_)
+        ->check(IntegerIn(1, 10000));
     sub_->add_option("--mqtt", mqtt_, "MQTT broker HOST:PORT: each record on flatscan/<station>/result (QoS 1), the "
                                       "state retained on flatscan/<station>/state (docs/line-outputs.md)");
     sub_->add_option("--mqtt-user", mqtt_user_, "MQTT user name");
@@ -114,14 +129,7 @@ class StationCommand : public Command {
     CheckStationId(station_id_);
     std::vector<LoadedRecipe> recipes;
     for (const std::string& r : recipes_) recipes.push_back(LoadRecipe(r));
-    FolderSourceOptions folder;
-    folder.half_pair_timeout = std::chrono::milliseconds(std::llround(1000 * half_pair_timeout_s_));
-    folder.keep_done = keep_done_;
-    const std::unique_ptr<PairSource> source = MakePairSource(source_, folder);
-    if (!trigger_.empty() && modbus_.empty())
-      ThrowInputError("--trigger software needs --modbus (the PLC triggers there)");
-    std::optional<TriggeredSource> triggered;
-    if (!trigger_.empty()) triggered.emplace(*source);
+    Sources sources = MakeSources(recipes.front().recipe.camera);
     LogToFile(log_.empty() ? Beside(store_, ".log") : log_);
     std::unique_ptr<ResultsStore> store;
     try {
@@ -137,7 +145,7 @@ class StationCommand : public Command {
     if (!archive_.empty()) archive = MakeArchive(recipes);
     StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,
                       recipes.front().recipe.name);
-    InspectionStation station(std::move(recipes), triggered ? *triggered : *source, *store, options);
+    InspectionStation station(std::move(recipes), sources.Station(), *store, options);
     station.AddPublisher(&status);
     const std::unique_ptr<MqttPublisher> mqtt = MakeMqtt(*store);
     if (mqtt) station.AddPublisher(mqtt.get());
@@ -149,10 +157,12 @@ class StationCommand : public Command {
           ParseHostPort(modbus_.find(':') == std::string::npos ? "127.0.0.1:" + modbus_ : modbus_, "--modbus");
       modbus = std::make_unique<ModbusServer>(address, port, recipes_.size(),
                                               [&station](size_t index) { station.SetActiveRecipe(index); });
-      if (triggered) modbus->SetTrigger([&triggered] { triggered->Trigger(); });
+      if (sources.trigger) modbus->SetTrigger(sources.trigger);
       station.AddPublisher(modbus.get());
     }
     station.SetArchive(archive.get());
+    std::optional<RateTrigger> rate;
+    if (trigger_rate_hz_) rate.emplace(*trigger_rate_hz_, sources.trigger);
     try {
       station.Run(StopGracefullyOnSignal());
     } catch (const StoreError& e) {
@@ -163,6 +173,63 @@ class StationCommand : public Command {
   }
 
  private:
+  // The station's source and how a software trigger reaches it.
+  struct Sources {
+    std::unique_ptr<PairSource> source;
+    std::unique_ptr<TriggeredSource> triggered;  // a file source released by triggers
+    std::function<void()> trigger;               // fires one trigger; empty: none
+    PairSource& Station() const { return triggered ? *triggered : *source; }
+  };
+
+  Sources MakeSources(const CameraSettings& camera_settings) const {
+    if (trigger_rate_hz_ && trigger_ == "line0")
+      ThrowInputError("--trigger-rate fires software triggers: it does not go with --trigger line0");
+    const bool camera = source_.rfind("cameras:", 0) == 0 || source_.rfind("aravis-fake:", 0) == 0;
+    Sources s;
+    if (camera) {
+      std::unique_ptr<CameraPairSource> cameras = MakeCameraSource(trigger_ == "line0", camera_settings);
+      if (trigger_ != "line0") s.trigger = [c = cameras.get()] { c->Trigger(); };
+      s.source = std::move(cameras);
+      return s;
+    }
+    if (trigger_ == "line0") ThrowInputError("--trigger line0: the trigger line is a camera's: --source cameras:L,R");
+    FolderSourceOptions folder;
+    folder.half_pair_timeout = std::chrono::milliseconds(std::llround(1000 * half_pair_timeout_s_));
+    folder.keep_done = keep_done_;
+    s.source = MakePairSource(source_, folder);
+    if (!trigger_.empty() && modbus_.empty() && !trigger_rate_hz_)
+      ThrowInputError("--trigger software needs --modbus (the PLC triggers there) or --trigger-rate HZ");
+    if (!trigger_.empty() || trigger_rate_hz_) {
+      s.triggered = std::make_unique<TriggeredSource>(*s.source);
+      s.trigger = [t = s.triggered.get()] { t->Trigger(); };
+    }
+    return s;
+  }
+
+  // cameras:L,R or aravis-fake:DIR. Software triggers come from the rate or the PLC; the
+  // fake cameras without either are triggered whenever the station is ready for a pair.
+  // The cameras start with the first recipe's exposure and gain (refused: exit 2).
+  std::unique_ptr<CameraPairSource> MakeCameraSource(bool line0, const CameraSettings& camera) const {
+    CameraSourceOptions o;
+    o.acquisition.exposure_us = camera.exposure_us;
+    o.acquisition.gain_db = camera.gain_db;
+    o.acquisition.trigger = line0 ? TriggerSource::kLine0 : TriggerSource::kSoftware;
+    o.frame_timeout = std::chrono::milliseconds(frame_timeout_ms_);
+    o.max_skew = std::chrono::milliseconds(max_skew_ms_);
+    const bool external = trigger_rate_hz_ || !modbus_.empty();
+    if (source_.rfind("aravis-fake:", 0) == 0) {
+      const std::string dir = source_.substr(std::string("aravis-fake:").size());
+      if (dir.empty()) ThrowInputError("--source '{}': expected aravis-fake:DIR (a simulated dataset)", source_);
+      o.trigger_on_demand = !line0 && !external;
+      return MakeFakeSource(source_, MakeDatasetScene(dir), o);
+    }
+    if (!line0 && !external)
+      ThrowInputError("--source {}: software triggers need --trigger-rate HZ or --modbus (the PLC triggers), or "
+                      "--trigger line0",
+                      source_);
+    return flatscan::MakeCameraSource(source_, o);
+  }
+
   // One archive folder for every recipe: the largest quota and retention any of them asks for.
   std::unique_ptr<ImageArchive> MakeArchive(const std::vector<LoadedRecipe>& recipes) const {
     double quota_mb = 0, retention_days = 0;
@@ -235,7 +302,8 @@ class StationCommand : public Command {
   std::vector<std::string> recipes_;
   std::string source_, store_, station_id_, log_, status_, archive_;
   std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_, plant_store_, trigger_;
-  std::optional<double> until_idle_s_;
+  std::optional<double> until_idle_s_, trigger_rate_hz_;
+  int frame_timeout_ms_ = 1000, max_skew_ms_ = 20;
   double half_pair_timeout_s_ = 10;
   int keep_done_ = 1000;
 };

@@ -17,6 +17,7 @@
 #include <sqlite3.h>
 #include <nlohmann/json.hpp>
 
+#include "flatscan/io/image_io.h"
 #include "flatscan/outputs/mqtt_test_util.h"
 #include "flatscan/store/postgres_test_util.h"
 #include "flatscan/util/sha256.h"
@@ -91,6 +92,57 @@ class StationCommand : public ::testing::Test {
   static testing::ScratchDir* dir_;
 };
 testing::ScratchDir* StationCommand::dir_ = nullptr;
+
+// The whole camera path: two Aravis fake cameras show the dataset's pairs, one per
+// trigger; the station measures the frames where the cameras put them, to the values of
+// the same pairs read from their files.
+TEST_F(StationCommand, FakeCamerasMeasureTheDatasetAsItsFilesDo) {
+  const std::string data = (Dir() / "data").string();
+  const auto files = Station("data/pairs.csv", "files.db");
+  ASSERT_EQ(files.exit_code, 0) << files.err;
+  for (const char* trigger : {"", "--trigger-rate 20"}) {  // on demand, then at a rate
+    const std::string store = fmt::format("fake{}.db", std::string(trigger).size());
+    const auto cams = testing::RunFlatscan(
+        fmt::format("station --recipe {0}/shield.yml --source aravis-fake:{1} --store {0}/{2} --station-id test-1 "
+                    "--until-idle 1 --archive {0}/fake_archive {3}",
+                    Dir().string(), data, store, trigger),
+        120);
+    ASSERT_EQ(cams.exit_code, 0) << cams.err;
+    const std::vector<json> expected = Results("files.db"), got = Results(store);
+    ASSERT_EQ(got.size(), 3u) << trigger;  // a record per trigger, the dataset's three
+    for (size_t i = 0; i < got.size(); ++i) {
+      EXPECT_EQ(got[i]["source_id"], expected[i]["source_id"]);
+      ASSERT_TRUE(got[i]["measured"].get<bool>()) << got[i].dump();
+      for (const char* key : {"flatness_mm", "lsq_pv_mm", "minzone_mm", "coverage", "uncertainty_mm"})
+        EXPECT_EQ(got[i][key].get<double>(), expected[i][key].get<double>()) << key;
+      EXPECT_EQ(got[i]["verdict"], expected[i]["verdict"]);
+      // A frame's hash is that of its pixels.
+      const cv::Mat1b left = ReadGreyImage((Dir() / "data" / fmt::format("parts/part_{:03d}_left.png", i)).string());
+      EXPECT_EQ(got[i]["left_sha256"], Sha256Hex(left.data, left.total())) << i;
+    }
+  }
+  // The first pass was archived: its PNG holds the frame's pixels.
+  const auto archived = Results("fake0.db")[0]["archive"]["left"].get<std::string>();
+  const cv::Mat1b kept = ReadGreyImage(archived), shown = ReadGreyImage((Dir() / "data/parts/part_000_left.png").string());
+  EXPECT_EQ(cv::norm(kept, shown, cv::NORM_INF), 0);
+}
+
+// The recipe's camera settings are set when the cameras start: settings the cameras
+// refuse stop the station before it takes a pair (exit 2, the camera and the value named).
+TEST_F(StationCommand, CameraSettingsTheCamerasRefuseAreBadInput) {
+  std::ofstream(Dir() / "too_much_gain.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.25\n"
+                                                "rig: data/rig.yml\nplane: data/plane_true.yml\n"
+                                                "camera:\n  exposure_us: 900\n  gain_db: 40\n";
+  const auto r = testing::RunFlatscan(
+      fmt::format("station --recipe {0}/too_much_gain.yml --source aravis-fake:{0}/data --store {0}/gain.db "
+                  "--until-idle 0.2",
+                  Dir().string()),
+      60);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("error: camera Aravis Fake (FAKE-LEFT): cannot set the gain to 40 dB: "), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(Dir() / "gain.db"));
+}
 
 TEST_F(StationCommand, RecordsEveryPairWithTheValuesOfInspect) {
   const auto run = Station("all.csv", "all.db");
@@ -195,7 +247,7 @@ TEST_F(StationCommand, RecipeCheckAndBadInput) {
   const auto source = testing::RunFlatscan(fmt::format(
       "station --recipe {0}/shield.yml --source camera:0 --store {0}/s.db --until-idle 0", Dir().string()));
   EXPECT_EQ(source.exit_code, 2);
-  EXPECT_NE(source.err.find("--source 'camera:0': expected folder:DIR (a folder to watch) or pairs:FILE.csv"),
+  EXPECT_NE(source.err.find("--source 'camera:0': expected folder:DIR (a folder to watch), pairs:FILE.csv"),
             std::string::npos)
       << source.err;
   EXPECT_FALSE(fs::exists(Dir() / "s.db"));

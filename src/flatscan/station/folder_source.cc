@@ -128,7 +128,7 @@ class FolderSource : public PairSource {
   // A pair goes out: its files' inodes are what Done() will move.
   void Hand(const std::string& id, const Inodes& inodes, std::optional<std::string> not_measurable) {
     claimed_[id] = inodes;
-    ready_.push_back(SourcePair{id, Path(id, Side::kLeft), Path(id, Side::kRight), std::move(not_measurable)});
+    ready_.push_back(FilePair(id, Path(id, Side::kLeft), Path(id, Side::kRight), std::move(not_measurable)));
   }
 
   fs::path Path(const std::string& id, Side side) const {

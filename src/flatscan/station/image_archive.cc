@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "flatscan/io/image_io.h"
 #include "flatscan/io/output_files.h"
 #include "flatscan/util/error.h"
 
@@ -28,6 +29,15 @@ void Copy(const fs::path& source, const fs::path& target) {
   std::error_code ec;
   fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
   if (ec) ThrowInputError("archive: cannot write {} ({})", target.string(), ec.message());
+}
+
+// A camera's frame as a PNG file (the record's hash is of its pixels: docs/cameras.md).
+void WriteFrame(const cv::Mat1b& frame, const fs::path& target) {
+  try {
+    WriteImage(target.string(), frame);
+  } catch (const std::exception& e) {
+    ThrowInputError("archive: cannot write {} ({})", target.string(), e.what());
+  }
 }
 
 }  // namespace
@@ -88,12 +98,15 @@ ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& p
   Entry entry{kind, fs::file_time_type::clock::now(), {}, 0};
   ArchivedPair out;
   try {
-    for (const auto& [source, name, target] : {std::tuple{pair.left, "_left.png", &out.left},
-                                               std::tuple{pair.right, "_right.png", &out.right}}) {
-      if (!fs::is_regular_file(source)) continue;  // the missing half of a pair
+    for (const auto& [source, frame, name, target] :
+         {std::tuple{pair.left, &pair.left_image, "_left.png", &out.left},
+          std::tuple{pair.right, &pair.right_image, "_right.png", &out.right}}) {
+      const bool from_camera = pair.frames && !frame->empty();
+      if (!from_camera && !fs::is_regular_file(source)) continue;  // the missing half of a pair
       const fs::path file = folder / (stem + name);
       entry.files.push_back(file);
-      Copy(source, file);
+      if (from_camera) WriteFrame(*frame, file);
+      else Copy(source, file);
       *target = file.string();
       entry.bytes += int64_t(fs::file_size(file));
     }

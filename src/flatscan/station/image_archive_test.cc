@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 // A record of the given kind for pair `id`, whose two images of `bytes` bytes exist.
 std::pair<StationRecord, SourcePair> Pair(const fs::path& dir, const std::string& id, const std::string& kind,
                                           size_t bytes = 1000) {
-  const SourcePair pair{id, dir / (id + "_left.png"), dir / (id + "_right.png"), std::nullopt};
+  const SourcePair pair = FilePair(id, dir / (id + "_left.png"), dir / (id + "_right.png"));
   std::ofstream(pair.left) << std::string(bytes, 'L');
   std::ofstream(pair.right) << std::string(bytes, 'R');
   StationRecord r;

@@ -28,16 +28,34 @@ std::string HashOrEmpty(const std::filesystem::path& file) {
   }
 }
 
+// A camera's frame as a hashed image, without a copy: its hash is that of its pixels,
+// row by row. Throws InputError when its size is not the rig's.
+HashedImage FrameHashed(const cv::Mat1b& frame, const cv::Size& expected, const char* side) {
+  if (frame.size() != expected)
+    ThrowInputError("{} camera frame: {} x {} pixels, expected {} x {} (the rig's calibration)", side, frame.cols,
+                    frame.rows, expected.width, expected.height);
+  const cv::Mat1b pixels = frame.isContinuous() ? frame : frame.clone();
+  return {frame, Sha256Hex(pixels.data, pixels.total())};
+}
+
+// The pair's images, decoded from its files or as its frames.
+std::pair<HashedImage, HashedImage> PairImages(const LoadedRecipe& loaded, const SourcePair& pair,
+                                               const InspectionInputs& inputs) {
+  const cv::Size left_size(loaded.rig.left.width, loaded.rig.left.height);
+  const cv::Size right_size(loaded.rig.right.width, loaded.rig.right.height);
+  if (pair.frames)
+    return {FrameHashed(pair.left_image, left_size, "left"), FrameHashed(pair.right_image, right_size, "right")};
+  return {ReadGreyImageHashed(inputs.left_file, left_size), ReadGreyImageHashed(inputs.right_file, right_size)};
+}
+
 // The pair's record; `r`'s image hashes are those of the bytes decoded.
 InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& pair, const InspectionInputs& inputs,
                                   StationRecord& r) {
   const Recipe& recipe = loaded.recipe;
   if (pair.not_measurable) return NotMeasuredRecord(*pair.not_measurable, recipe.params, recipe.spec, inputs);
   try {
-    const HashedImage left = ReadGreyImageHashed(inputs.left_file, {loaded.rig.left.width, loaded.rig.left.height});
+    const auto [left, right] = PairImages(loaded, pair, inputs);
     r.left_sha256 = left.sha256;
-    const HashedImage right =
-        ReadGreyImageHashed(inputs.right_file, {loaded.rig.right.width, loaded.rig.right.height});
     r.right_sha256 = right.sha256;
     const InspectionResult result = InspectPart(loaded.rig, loaded.plane, left.image, right.image, recipe.params,
                                                 inputs.left_file, inputs.right_file);
@@ -71,8 +89,8 @@ StationRecord MeasureSourcePair(const LoadedRecipe& loaded, const SourcePair& pa
   inputs.right_file = pair.right.string();
   r.inspection = InspectOrExplain(loaded, pair, inputs, r);
   // An image that was not decoded (half pair, corrupt file) is hashed as a file.
-  if (r.left_sha256.empty()) r.left_sha256 = HashOrEmpty(pair.left);
-  if (r.right_sha256.empty()) r.right_sha256 = HashOrEmpty(pair.right);
+  if (r.left_sha256.empty() && !pair.left.empty()) r.left_sha256 = HashOrEmpty(pair.left);
+  if (r.right_sha256.empty() && !pair.right.empty()) r.right_sha256 = HashOrEmpty(pair.right);
   return r;
 }
 
@@ -189,12 +207,16 @@ void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
     return std::chrono::duration<double>(Clock::now() - Clock::time_point(Clock::duration(last_activity.load())))
         .count();
   };
+  size_t source_recipe = recipes_.size();  // the recipe the source was last told of
   const auto next = [&](tbb::flow_control& control) -> Item {
     while (!stop && !failed) {
+      const size_t active = active_.load();
+      if (active != source_recipe) source_.UseRecipe(recipes_[active].recipe);
+      source_recipe = active;
       if (auto pair = source_.Next(kPollWait)) {
         ++in_flight;
         ++counts_.taken;
-        return {std::move(*pair), active_.load()};
+        return {std::move(*pair), active_.load()};  // a switch while waiting counts (the PLC's order)
       }
       if (options_.until_idle_s && in_flight == 0 && idle_for() >= *options_.until_idle_s) break;
     }

@@ -28,7 +28,7 @@ class PairsFileSource : public PairSource {
       return std::nullopt;
     }
     const PairEntry& p = pairs_[next_++];
-    return SourcePair{p.id, p.left, p.right, std::nullopt};
+    return FilePair(p.id, p.left, p.right);
   }
   bool Exhausted() const override { return next_ == pairs_.size(); }
   std::string Name() const override { return name_; }
@@ -50,7 +50,8 @@ std::unique_ptr<PairSource> MakePairSource(const std::string& spec, const Folder
   const std::string kind = spec.substr(0, colon), where = colon == std::string::npos ? "" : spec.substr(colon + 1);
   if (kind == "pairs" && !where.empty()) return MakePairsFileSource(where);
   if (kind == "folder" && !where.empty()) return MakeFolderSource(where, folder);
-  ThrowInputError("--source '{}': expected folder:DIR (a folder to watch) or pairs:FILE.csv (a pairs file to replay)",
+  ThrowInputError("--source '{}': expected folder:DIR (a folder to watch), pairs:FILE.csv (a pairs file to replay), "
+                  "cameras:LEFT,RIGHT (two cameras) or aravis-fake:DIR (fake cameras showing a dataset)",
                   spec);
 }
 

@@ -1,21 +1,41 @@
 #pragma once
 // Where a station's pairs come from. One pipeline, several sources: a replay of a
 // pairs file (`pairs:FILE.csv`, io/pairs_csv.h), a watched folder (`folder:DIR`,
-// station/folder_source.h), cameras (next). A source hands out pairs; the station tells it when a pair's record is
-// committed, so that a source that moves or deletes files does so only then.
+// station/folder_source.h), two cameras (`cameras:L,R`, `aravis-fake:DIR`:
+// acquisition/camera_pair_source.h). A source hands out pairs; the station tells it when a
+// pair's record is committed, so that a source that moves or deletes files does so only then.
 #include <chrono>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 
+#include <opencv2/core.hpp>
+
 namespace flatscan {
+
+struct Recipe;  // station/recipe.h
 
 struct SourcePair {
   std::string source_id;                    // the pair's id in its source
-  std::filesystem::path left, right;        // image files
+  std::filesystem::path left, right;        // image files (a file source)
   std::optional<std::string> not_measurable;  // why it cannot be measured (a half pair past its timeout)
+  // Frames in memory (a camera source), measured where they are: `frames` holds the
+  // camera buffers they point into until the pair is done.
+  cv::Mat1b left_image, right_image;
+  std::shared_ptr<const void> frames;
 };
+
+// A pair of image files.
+inline SourcePair FilePair(std::string id, std::filesystem::path left, std::filesystem::path right,
+                           std::optional<std::string> not_measurable = std::nullopt) {
+  SourcePair pair;
+  pair.source_id = std::move(id);
+  pair.left = std::move(left);
+  pair.right = std::move(right);
+  pair.not_measurable = std::move(not_measurable);
+  return pair;
+}
 
 // Thread safety: the station calls Next() from one thread and Done() from another, at
 // the same time; an implementation guards what the two share. Done() may throw (the
@@ -31,6 +51,9 @@ class PairSource {
   virtual void Done(const SourcePair& /*pair*/) {}
   // What the source is, for logs: "pairs:list.csv".
   virtual std::string Name() const = 0;
+  // The recipe the next pairs are measured with (called before the first pair and at
+  // each change): a camera source sets its cameras' exposure and gain.
+  virtual void UseRecipe(const Recipe& /*recipe*/) {}
 };
 
 // The folder source's timing and clean-up (station/folder_source.h).

@@ -18,8 +18,9 @@ namespace {
 
 const std::set<std::string> kTopKeys = {"name",         "thickness_mm", "tolerance_mm",  "rig",        "plane",
                                         "guard_band_mm", "rig_sha256",  "plane_sha256",  "part_length_mm",
-                                        "side_faces",   "exposure",     "archive"};
+                                        "side_faces",   "exposure",     "archive",       "camera"};
 const std::set<std::string> kExposureKeys = {"min_backlight_grey", "max_saturated_fraction", "max_blur_sigma_px"};
+const std::set<std::string> kCameraKeys = {"exposure_us", "gain_db"};
 const std::set<std::string> kArchiveKeys = {"keep_pass_every", "quota_mb", "fail_retention_days"};
 
 // Reads one mapping of a recipe, with messages "<file>: <key>: expected ..., found ...".
@@ -145,6 +146,14 @@ ArchivePolicy ReadArchive(const std::string& file, const YAML::Node& node) {
   return p;
 }
 
+CameraSettings ReadCamera(const std::string& file, const YAML::Node& node) {
+  const RecipeReader r(file, node, "camera.", kCameraKeys);
+  CameraSettings c;
+  if (r.Has("exposure_us")) c.exposure_us = r.Number("exposure_us", 1, 1e7, false, "us");
+  if (r.Has("gain_db")) c.gain_db = r.Number("gain_db", 0, 48, false, "dB");
+  return c;
+}
+
 std::string CheckedHash(const std::filesystem::path& file, const char* key, const std::string& pin,
                         const Recipe& recipe) {
   const std::string actual = Sha256HexOfFile(file);
@@ -182,6 +191,7 @@ Recipe ReadRecipe(const std::filesystem::path& path) {
   }
   if (top.Has("exposure")) ReadExposure(file, top.Node("exposure"), r.params.acceptance);
   if (top.Has("archive")) r.archive = ReadArchive(file, top.Node("archive"));
+  if (top.Has("camera")) r.camera = ReadCamera(file, top.Node("camera"));
   return r;
 }
 
@@ -231,6 +241,11 @@ std::string DescribeRecipe(const LoadedRecipe& loaded) {
                         : std::string("  any part length is accepted (no part_length_mm)\n");
   s += fmt::format("  images: backlight at least grey {:.0f}, at most {:.0f}% saturated, edge blur at most {:.2f} px\n",
                    a.min_backlight_grey, 100 * a.max_saturated_fraction, a.max_blur_sigma_px);
+  const auto setting = [](const std::optional<double>& v, const char* unit) {
+    return v ? fmt::format("{:g} {}", *v, unit) : std::string("the camera's own");
+  };
+  s += fmt::format("  cameras (--source cameras:..): exposure {}, gain {}\n", setting(r.camera.exposure_us, "us"),
+                   setting(r.camera.gain_db, "dB"));
   s += fmt::format("  archive (--archive): every fail and not-measured pair, {}; quota {:.0f} MB; fails kept at "
                    "least {:.0f} days\n",
                    r.archive.keep_pass_every == 0 ? std::string("no pass pairs")

@@ -18,6 +18,10 @@
 //     min_backlight_grey: 60      #   backlight grey level, 1-255
 //     max_saturated_fraction: 0.25  # fraction of the backlight at 255, [0, 1]
 //     max_blur_sigma_px: 2.0      #   the edges' blur, (0, 6] px
+//   camera:                       # optional: set on both cameras (--source cameras:..)
+//     exposure_us: 800            #   GenICam ExposureTime, [1, 10000000] us
+//     gain_db: 0                  #   GenICam Gain, [0, 48] dB; both leave the camera's
+//                                 #   own setting when absent
 //   archive:                      # optional: which images the station keeps (--archive)
 //     keep_pass_every: 100        #   one "pass" pair in N (0: none); every fail and
 //                                 #   every "not measured" pair is kept
@@ -45,6 +49,12 @@ struct ArchivePolicy {
   double fail_retention_days = 90;   // a quarter: long enough for a customer complaint
 };
 
+// What the cameras are set to for this part (a camera source applies it when the recipe
+// becomes active; file sources ignore it).
+struct CameraSettings {
+  std::optional<double> exposure_us, gain_db;
+};
+
 struct LengthRange {
   double min_mm = 0, max_mm = 0;
 };
@@ -59,6 +69,7 @@ struct Recipe {
   InspectionParams params;           // thickness, side faces, exposure
   std::optional<LengthRange> part_length_mm;
   ArchivePolicy archive;
+  CameraSettings camera;
 };
 
 // Parses and checks a recipe file's keys and values (not the files it names). Throws

@@ -46,7 +46,8 @@ TEST_F(RecipeTest, ReadsEveryKey) {
   const fs::path p = Write(Minimal() +
                            "guard_band_mm: 0.01\npart_length_mm: [15, 25.5]\nside_faces: centre\n"
                            "exposure:\n  min_backlight_grey: 80\n  max_saturated_fraction: 0.1\n  max_blur_sigma_px: 1.5\n"
-                           "archive:\n  keep_pass_every: 10\n  quota_mb: 500\n  fail_retention_days: 30\n");
+                           "archive:\n  keep_pass_every: 10\n  quota_mb: 500\n  fail_retention_days: 30\n"
+                           "camera:\n  exposure_us: 800\n  gain_db: 6\n");
   const LoadedRecipe loaded = LoadRecipe(p);
   const Recipe& r = loaded.recipe;
   EXPECT_EQ(r.name, "shield");
@@ -62,6 +63,10 @@ TEST_F(RecipeTest, ReadsEveryKey) {
   EXPECT_EQ(r.params.acceptance.max_blur_sigma_px, 1.5);
   EXPECT_EQ(r.archive.keep_pass_every, 10);
   EXPECT_EQ(r.archive.quota_mb, 500);
+  EXPECT_EQ(r.camera.exposure_us, 800);
+  EXPECT_EQ(r.camera.gain_db, 6);
+  EXPECT_FALSE(ReadRecipe(Write(Minimal(), "minimal.yml")).camera.exposure_us);  // the camera's own
+  EXPECT_NE(DescribeRecipe(loaded).find("cameras (--source cameras:..): exposure 800 us, gain 6 dB"), std::string::npos);
   EXPECT_EQ(loaded.inputs.plane_rig, PlaneRigMatch::kMatches);
   EXPECT_EQ(loaded.inputs.rig_sha256, Sha256HexOfFile(dir_->path() / "data/rig.yml"));
   EXPECT_NE(DescribeRecipe(loaded).find("a part whose length is outside [15.00, 25.50] mm is not measured"),
@@ -73,7 +78,7 @@ TEST_F(RecipeTest, BadKeysAreNamedWithWhatWasExpected) {
   EXPECT_EQ(ErrorOf("name: shield\nthickness_mm: 0.2\nrig: data/rig.yml\nplane: data/plane_true.yml\n"),
             f + ": tolerance_mm: expected a number, found nothing (the key is missing)");
   EXPECT_EQ(ErrorOf(Minimal() + "tolerance: 0.2\n"),
-            f + ": tolerance: expected one of the recipe's keys (archive, exposure, guard_band_mm, name, part_length_mm, "
+            f + ": tolerance: expected one of the recipe's keys (archive, camera, exposure, guard_band_mm, name, part_length_mm, "
                 "plane, plane_sha256, rig, rig_sha256, side_faces, thickness_mm, tolerance_mm), found an unknown key");
   EXPECT_EQ(ErrorOf("name: shield\nthickness_mm: thin\ntolerance_mm: 0.1\nrig: a\nplane: b\n"),
             f + ": thickness_mm: expected a number in (0, 5] mm, found 'thin'");
@@ -87,6 +92,10 @@ TEST_F(RecipeTest, BadKeysAreNamedWithWhatWasExpected) {
   EXPECT_EQ(ErrorOf(Minimal() + "exposure:\n  max_blur: 3\n"),
             f + ": exposure.max_blur: expected one of the recipe's keys (max_blur_sigma_px, max_saturated_fraction, "
                 "min_backlight_grey), found an unknown key");
+  EXPECT_EQ(ErrorOf(Minimal() + "camera:\n  gain_db: 60\n"),
+            f + ": camera.gain_db: expected a number in [0, 48] dB, found '60'");
+  EXPECT_EQ(ErrorOf(Minimal() + "camera:\n  exposure: 800\n"),
+            f + ": camera.exposure: expected one of the recipe's keys (exposure_us, gain_db), found an unknown key");
   EXPECT_EQ(ErrorOf(Minimal() + "side_faces: tilted\n"), f + ": side_faces: expected local, centre or support, found 'tilted'");
   EXPECT_EQ(ErrorOf("name: [shield\n"), f + ": line 2: not valid YAML (end of sequence flow not found)");
   EXPECT_EQ(ErrorOf("- a list\n"), f + ": (top level): expected a mapping of keys to values, found a list");

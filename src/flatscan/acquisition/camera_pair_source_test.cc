@@ -1,0 +1,208 @@
+// The camera pair source through Aravis's in-process fake cameras: frames as the
+// dataset shows them, one pair per trigger, and the faults a line meets (a lost frame,
+// a late camera, an incomplete buffer), each a "not measured" pair with its reason.
+#include "flatscan/acquisition/camera_pair_source.h"
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "flatscan/io/image_io.h"
+#include "flatscan/station/recipe.h"
+#include "flatscan/util/test_util.h"
+
+namespace flatscan {
+namespace {
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+
+// `n` pairs of 96 x 64 noise images (seeded: every image different) and their pairs.csv.
+std::vector<std::pair<cv::Mat1b, cv::Mat1b>> WriteNoiseDataset(const fs::path& dir, int n) {
+  std::mt19937 rng(7);
+  std::vector<std::pair<cv::Mat1b, cv::Mat1b>> images;
+  std::ofstream csv(dir / "pairs.csv");
+  csv << "id,left,right\n";
+  for (int k = 1; k <= n; ++k) {
+    cv::Mat1b left(64, 96), right(64, 96);
+    for (auto* image : {&left, &right})
+      for (auto& p : *image) p = uint8_t(rng() & 0xff);
+    WriteImage((dir / fmt::format("p{}_left.png", k)).string(), left);
+    WriteImage((dir / fmt::format("p{}_right.png", k)).string(), right);
+    csv << fmt::format("part-{},p{}_left.png,p{}_right.png\n", k, k, k);
+    images.emplace_back(left, right);
+  }
+  return images;
+}
+
+bool Same(const cv::Mat1b& a, const cv::Mat1b& b) { return a.size() == b.size() && cv::norm(a, b, cv::NORM_INF) == 0; }
+
+// The dataset with a fault at some triggers.
+class FaultyScene : public FakeScene {
+ public:
+  FaultyScene(std::shared_ptr<FakeScene> scene, std::map<std::pair<int64_t, bool>, FakeTriggerFault> faults)
+      : scene_(std::move(scene)), faults_(std::move(faults)) {}
+  int64_t Triggers() const override { return scene_->Triggers(); }
+  cv::Size FrameSize() const override { return scene_->FrameSize(); }
+  std::string Id(int64_t trigger) const override { return scene_->Id(trigger); }
+  void Fill(int64_t trigger, bool left, int width, int height, uint8_t* pixels) override {
+    scene_->Fill(trigger, left, width, height, pixels);
+  }
+  FakeTriggerFault Fault(int64_t trigger, bool left) const override {
+    const auto it = faults_.find({trigger, left});
+    return it == faults_.end() ? FakeTriggerFault{} : it->second;
+  }
+
+ private:
+  std::shared_ptr<FakeScene> scene_;
+  std::map<std::pair<int64_t, bool>, FakeTriggerFault> faults_;
+};
+
+TEST(CameraPairSource, FakeCamerasShowTheDatasetPairByPairWithoutACopy) {
+  testing::ScratchDir dir("fake_source");
+  const auto images = WriteNoiseDataset(dir.path(), 3);
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options);
+  for (int k = 1; k <= 3; ++k) {
+    EXPECT_FALSE(source->Exhausted());
+    const std::optional<SourcePair> pair = source->Next(milliseconds(2000));
+    ASSERT_TRUE(pair);
+    EXPECT_EQ(pair->source_id, fmt::format("part-{}", k));
+    EXPECT_FALSE(pair->not_measurable) << *pair->not_measurable;
+    ASSERT_TRUE(pair->frames);
+    EXPECT_TRUE(Same(pair->left_image, images[size_t(k - 1)].first)) << k;
+    EXPECT_TRUE(Same(pair->right_image, images[size_t(k - 1)].second)) << k;
+    EXPECT_TRUE(pair->left.empty() && pair->right.empty());  // no file behind a frame
+  }
+  EXPECT_TRUE(source->Exhausted());
+  EXPECT_EQ(source->Triggers(), 3);
+  EXPECT_FALSE(source->Next(milliseconds(50)));  // no fourth trigger past the dataset
+}
+
+TEST(CameraPairSource, ABufferComesBackToTheCameraOnlyWhenItsPairIsDone) {
+  testing::ScratchDir dir("fake_buffers");
+  const auto images = WriteNoiseDataset(dir.path(), 4);
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.acquisition.buffers = 2;
+  const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options);
+  std::optional<SourcePair> first = source->Next(milliseconds(2000)), second = source->Next(milliseconds(2000));
+  ASSERT_TRUE(first && second);
+  EXPECT_FALSE(second->not_measurable);
+  // Both buffers are held: the third trigger finds none, its frames are lost, and the
+  // pairs held are untouched.
+  const std::optional<SourcePair> third = source->Next(milliseconds(2000));
+  ASSERT_TRUE(third);
+  ASSERT_TRUE(third->not_measurable);
+  EXPECT_EQ(*third->not_measurable, "the left camera gave no frame within 1000 ms of trigger 3");
+  EXPECT_TRUE(Same(first->left_image, images[0].first));
+  first.reset();  // its buffers go back
+  const std::optional<SourcePair> fourth = source->Next(milliseconds(2000));
+  ASSERT_TRUE(fourth);
+  EXPECT_FALSE(fourth->not_measurable);
+  EXPECT_TRUE(Same(fourth->left_image, images[3].first));
+  EXPECT_TRUE(Same(second->right_image, images[1].second));
+}
+
+// Every fault: one pair per trigger, the reason named, and the pairs after it right.
+TEST(CameraPairSource, FaultsGiveNotMeasuredPairsAndTheNextTriggerIsRight) {
+  testing::ScratchDir dir("fake_faults");
+  const auto images = WriteNoiseDataset(dir.path(), 6);
+  FakeTriggerFault drop, late, incomplete;
+  drop.drop = true;
+  late.delay = milliseconds(60);
+  incomplete.incomplete = true;
+  auto scene = std::make_shared<FaultyScene>(MakeDatasetScene(dir.path().string()),
+                                             std::map<std::pair<int64_t, bool>, FakeTriggerFault>{
+                                                 {{2, true}, drop}, {{3, false}, late}, {{5, false}, incomplete}});
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.frame_timeout = milliseconds(300);
+  const auto source = MakeFakeSource("aravis-fake:test", scene, options);
+  std::vector<SourcePair> pairs;
+  while (!source->Exhausted())
+    if (auto pair = source->Next(milliseconds(2000))) pairs.push_back(std::move(*pair));
+  ASSERT_EQ(pairs.size(), 6u);  // one per trigger
+  EXPECT_EQ(source->Triggers(), 6);
+  const auto reason = [&](size_t k) { return pairs[k - 1].not_measurable.value_or(""); };
+  EXPECT_EQ(reason(2), "the left camera gave no frame within 300 ms of trigger 2");
+  EXPECT_NE(reason(3).find("cameras out of sync: the frames of trigger 3 are "), std::string::npos) << reason(3);
+  EXPECT_NE(reason(3).find(" ms apart (limit 20 ms)"), std::string::npos) << reason(3);
+  EXPECT_EQ(reason(5), "the right camera's frame of trigger 5 is incomplete: size mismatch (the frame did not fit the "
+                       "buffer)");
+  for (const size_t k : {1, 4, 6}) {
+    EXPECT_EQ(reason(k), "") << k;
+    EXPECT_TRUE(Same(pairs[k - 1].left_image, images[k - 1].first)) << k;
+    EXPECT_TRUE(Same(pairs[k - 1].right_image, images[k - 1].second)) << k;
+  }
+}
+
+// line0: a fake line pulsing at 20 Hz, both fake cameras on it; the frames paired by
+// their timestamps, in the dataset's order.
+TEST(CameraPairSource, OnALineTheFramesArePairedByTheirTimestamps) {
+  testing::ScratchDir dir("fake_line");
+  const auto images = WriteNoiseDataset(dir.path(), 4);
+  CameraSourceOptions options;
+  options.acquisition.trigger = TriggerSource::kLine0;
+  options.acquisition.fake_line_hz = 20;
+  const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options);
+  for (int k = 1; k <= 4; ++k) {
+    const std::optional<SourcePair> pair = source->Next(milliseconds(2000));
+    ASSERT_TRUE(pair);
+    EXPECT_EQ(pair->source_id, fmt::format("part-{}", k));
+    ASSERT_FALSE(pair->not_measurable) << *pair->not_measurable;
+    EXPECT_TRUE(Same(pair->left_image, images[size_t(k - 1)].first)) << k;
+    EXPECT_TRUE(Same(pair->right_image, images[size_t(k - 1)].second)) << k;
+  }
+  EXPECT_TRUE(source->Exhausted());
+}
+
+// The recipe's exposure and gain reach both cameras; settings a camera refuses make the
+// pairs "not measured" until a recipe it takes.
+TEST(CameraPairSource, TheRecipeSetsExposureAndGain) {
+  testing::ScratchDir dir("fake_settings");
+  WriteNoiseDataset(dir.path(), 3);
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.acquisition.exposure_us = 500;
+  const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options);
+  EXPECT_EQ(source->Camera(true).ExposureUs(), 500);  // from the start
+  Recipe recipe;
+  recipe.name = "bright";
+  recipe.camera.exposure_us = 800;
+  recipe.camera.gain_db = 6;
+  source->UseRecipe(recipe);
+  for (const bool left : {true, false}) {
+    EXPECT_EQ(source->Camera(left).ExposureUs(), 800);
+    EXPECT_EQ(source->Camera(left).GainDb(), 6);
+  }
+  EXPECT_FALSE(source->Next(milliseconds(2000))->not_measurable);
+  recipe.name = "too-much";
+  recipe.camera.gain_db = 40;  // the fake's gain goes to 10
+  source->UseRecipe(recipe);
+  const std::string reason = source->Next(milliseconds(2000))->not_measurable.value_or("");
+  EXPECT_EQ(reason.rfind("recipe too-much: camera Aravis Fake (FAKE-LEFT): cannot set the gain to 40 dB: ", 0), 0u)
+      << reason;
+  recipe.camera.gain_db = 2;
+  source->UseRecipe(recipe);
+  EXPECT_FALSE(source->Next(milliseconds(2000))->not_measurable);
+}
+
+TEST(CameraPairSource, NamesACameraSpecItCannotUse) {
+  EXPECT_EQ(testing::InputErrorOf([] { MakeCameraSource("cameras:A", {}); }),
+            "--source 'cameras:A': expected cameras:LEFT,RIGHT (each camera's id or serial, from `flatscan cameras`)");
+  EXPECT_EQ(testing::InputErrorOf([] { MakeCameraSource("cameras:A,A", {}); }),
+            "--source 'cameras:A,A': the left and the right camera are the same camera");
+  const std::string missing = testing::InputErrorOf([] { MakeCameraSource("cameras:NO-SUCH-1,NO-SUCH-2", {}); });
+  EXPECT_NE(missing.find("camera 'NO-SUCH-1': not found among the "), std::string::npos) << missing;
+}
+
+}  // namespace
+}  // namespace flatscan
