@@ -102,10 +102,27 @@ struct StreamState {
 
 }  // namespace
 
-std::vector<CameraInfo> ListCameras(bool include_fake) {
+CameraInterfaces ParseCameraInterfaces(const std::string& list, const std::string& option) {
+  CameraInterfaces interfaces{false, false, false};
+  std::string rest = list;
+  while (true) {
+    const size_t comma = rest.find(',');
+    const std::string name = rest.substr(0, comma);
+    if (name == "gige") interfaces.gige = true;
+    else if (name == "usb3") interfaces.usb3 = true;
+    else if (name == "fake") interfaces.fake = true;
+    else ThrowInputError("{} '{}': expected a comma-separated list of gige, usb3, fake", option, list);
+    if (comma == std::string::npos) break;
+    rest = rest.substr(comma + 1);
+  }
+  return interfaces;
+}
+
+std::vector<CameraInfo> ListCameras(const CameraInterfaces& interfaces) {
   std::lock_guard lock(DiscoveryMutex());
-  if (include_fake) arv_enable_interface("Fake");
-  else arv_disable_interface("Fake");
+  for (const auto& [id, on] : {std::pair{"GigEVision", interfaces.gige}, std::pair{"USB3Vision", interfaces.usb3},
+                               std::pair{"Fake", interfaces.fake}})
+    on ? arv_enable_interface(id) : arv_disable_interface(id);
   arv_update_device_list();
   std::vector<CameraInfo> cameras;
   for (unsigned i = 0; i < arv_get_n_devices(); ++i)
@@ -160,8 +177,8 @@ class AravisCamera::Impl {
 AravisCamera::AravisCamera(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 AravisCamera::~AravisCamera() = default;
 
-std::unique_ptr<AravisCamera> AravisCamera::Open(const std::string& name, bool include_fake) {
-  const std::vector<CameraInfo> cameras = ListCameras(include_fake);
+std::unique_ptr<AravisCamera> AravisCamera::Open(const std::string& name, const CameraInterfaces& interfaces) {
+  const std::vector<CameraInfo> cameras = ListCameras(interfaces);
   const auto it = std::find_if(cameras.begin(), cameras.end(),
                                [&](const CameraInfo& c) { return c.id == name || c.serial == name; });
   if (it == cameras.end())

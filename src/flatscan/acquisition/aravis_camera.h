@@ -31,9 +31,19 @@ struct CameraInfo {
   std::string address;   // IP address (GigE) or bus address (USB3)
 };
 
-// The devices found now (GigE Vision discovery on every interface and USB3 Vision; about
-// 1 s). `include_fake`: also Aravis's in-process fake camera, whose id is "Fake_1".
-std::vector<CameraInfo> ListCameras(bool include_fake);
+// The Aravis interfaces discovery searches. GigE Vision discovery broadcasts on every
+// network interface of the machine and waits about 1 s for answers; the tests search the
+// fake interface only (Aravis's in-process fake camera, id "Fake_1"), so that they send
+// nothing on a network.
+struct CameraInterfaces {
+  bool gige = true, usb3 = true, fake = false;
+  static CameraInterfaces FakeOnly() { return {false, false, true}; }
+};
+// "gige,usb3,fake" or any subset; throws InputError "<option> '<list>': expected ...".
+CameraInterfaces ParseCameraInterfaces(const std::string& list, const std::string& option);
+
+// The devices found now on `interfaces`.
+std::vector<CameraInfo> ListCameras(const CameraInterfaces& interfaces);
 nlohmann::json CameraInfoToJson(const CameraInfo& info);
 
 // What a test grab saw: the backlight check. Grey levels are of Mono8 frames.
@@ -88,10 +98,10 @@ struct FakeTriggerFault {
 
 class AravisCamera {
  public:
-  // The camera whose id or serial number is `name` (discovery first, with the fake
-  // camera when `include_fake`). Throws InputError naming it and how many cameras
-  // were found when there is none such, or when it cannot be opened.
-  static std::unique_ptr<AravisCamera> Open(const std::string& name, bool include_fake);
+  // The camera whose id or serial number is `name` (discovery first, on `interfaces`).
+  // Throws InputError naming it and how many cameras were found when there is none
+  // such, or when it cannot be opened.
+  static std::unique_ptr<AravisCamera> Open(const std::string& name, const CameraInterfaces& interfaces);
   // An in-process fake camera with this serial number, width x height Mono8, its
   // frames filled by `fill` (tests, demos, `--source aravis-fake:DIR`).
   static std::unique_ptr<AravisCamera> OpenFake(const std::string& serial, int width, int height, FakeFill fill);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "flatscan/util/error.h"
+#include "flatscan/util/test_util.h"
 
 namespace flatscan {
 namespace {
@@ -44,22 +45,27 @@ TEST(AravisCamera, AFakeFrameAsLargeAsTheCompactRigs) {  // beyond the fake sens
 }
 
 TEST(AravisCamera, ListsTheFakeCameraOnlyWhenAskedAndNamesOneItCannotFind) {
-  const auto has_fake = [](const std::vector<CameraInfo>& cameras) {
-    return std::any_of(cameras.begin(), cameras.end(), [](const CameraInfo& c) { return c.protocol == "Fake"; });
-  };
-  const std::vector<CameraInfo> with_fake = ListCameras(true);
+  // The fake interface only: GigE Vision discovery would broadcast on the machine's networks.
+  const std::vector<CameraInfo> with_fake = ListCameras(CameraInterfaces::FakeOnly());
   const auto fake = std::find_if(with_fake.begin(), with_fake.end(), [](const CameraInfo& c) { return c.id == "Fake_1"; });
   ASSERT_NE(fake, with_fake.end());
   EXPECT_EQ(fake->protocol, "Fake");
   EXPECT_EQ(CameraInfoToJson(*fake).at("serial"), fake->serial);
-  EXPECT_FALSE(has_fake(ListCameras(false)));
+  EXPECT_TRUE(ListCameras(CameraInterfaces{false, false, false}).empty());
   try {
-    AravisCamera::Open("NO-SUCH-CAMERA", false);
+    AravisCamera::Open("NO-SUCH-CAMERA", CameraInterfaces::FakeOnly());
     ADD_FAILURE() << "expected an InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("camera 'NO-SUCH-CAMERA': not found among the "), std::string::npos)
         << e.what();
   }
+}
+
+TEST(AravisCamera, InterfacesAreParsedAndAnUnknownOneNamed) {
+  const CameraInterfaces i = ParseCameraInterfaces("usb3,fake", "--interfaces");
+  EXPECT_TRUE(!i.gige && i.usb3 && i.fake);
+  EXPECT_EQ(testing::InputErrorOf([] { ParseCameraInterfaces("gige,usb", "--interfaces"); }),
+            "--interfaces 'gige,usb': expected a comma-separated list of gige, usb3, fake");
 }
 
 TEST(GreyStatistics, FramesAreWeightedByTheirPixels) {

@@ -31,15 +31,17 @@ int64_t HostNowNs() {
 // Two fake cameras given a buffer each fill them at the same tick unless the tick falls
 // between the two: keep this far from one.
 constexpr microseconds kFakeTickMargin{800};
+// On a fake line the frames come at every tick whether taken or not: the scene's frames
+// are prepared this many pairs ahead of the pair taken.
+constexpr int64_t kFakeLineLookahead = 4;
 
 // The two frames of one pair and the buffers they live in.
 struct FramePair {
   CameraFrame left, right;
 };
 
-// A dataset's pairs shown by two fake cameras. A software trigger's images are decoded
-// by Prepare before the trigger; on a fake line (no Prepare) each camera decodes its own
-// side as it fills the frame.
+// A dataset's pairs shown by two fake cameras. The images are decoded by Prepare before
+// the trigger (or ahead, on a fake line); a frame not prepared is decoded as it is filled.
 class DatasetScene : public FakeScene {
  public:
   explicit DatasetScene(const std::string& dir)
@@ -110,6 +112,8 @@ CameraPairSource::CameraPairSource(std::string name, std::unique_ptr<AravisCamer
   left_->Start(options_.acquisition);
   right_->Start(options_.acquisition);
   if (left_->IsFake() && right_->IsFake() && options_.acquisition.trigger == TriggerSource::kLine0) {
+    if (scene_)
+      for (int64_t k = 1; k <= kFakeLineLookahead; ++k) scene_->Prepare(k);
     left_->AwayFromFakeTick(kFakeTickMargin);  // both fakes' first frame at the same tick
     left_->QueueFakeLine();
     right_->QueueFakeLine();
@@ -206,6 +210,7 @@ std::optional<SourcePair> CameraPairSource::NextTriggered(milliseconds wait) {
   if (!fired.problem.empty()) {
     SourcePair pair = Pair(fired.id, std::nullopt, std::nullopt, fired.trigger);
     pair.not_measurable = "trigger " + std::to_string(fired.trigger) + ": " + fired.problem;
+    pair.source_fault = true;
     return pair;
   }
   const std::optional<CameraFrame> left = FrameFor(*left_, fired);
@@ -251,6 +256,7 @@ SourcePair CameraPairSource::Pair(const std::string& id, const std::optional<Cam
   }
   if (!problem.empty()) {
     pair.not_measurable = problem;
+    pair.source_fault = true;
     return pair;
   }
   auto frames = std::make_shared<FramePair>(FramePair{*left, *right});
@@ -277,6 +283,7 @@ std::optional<SourcePair> CameraPairSource::NextOnLine(milliseconds wait) {
   if (!left && !right) return std::nullopt;
   if (!left) left = take(*left_, held_left_, options_.frame_timeout);
   const int64_t trigger = taken_ + 1;
+  if (scene_) scene_->Prepare(trigger + kFakeLineLookahead);
   const int64_t ns = left ? left->timestamp_ns : right->timestamp_ns;
   if (left && right && std::llabs(left->timestamp_ns - right->timestamp_ns) > int64_t(options_.max_skew.count()) * 1'000'000) {
     const bool left_older = left->timestamp_ns < right->timestamp_ns;
@@ -292,7 +299,7 @@ std::optional<SourcePair> CameraPairSource::NextOnLine(milliseconds wait) {
 }
 
 std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, CameraSourceOptions options,
-                                                   bool include_fake) {
+                                                   const CameraInterfaces& interfaces) {
   const std::string prefix = "cameras:";
   const auto comma = spec.find(',');
   if (spec.rfind(prefix, 0) != 0 || comma == std::string::npos || comma == prefix.size() || comma + 1 == spec.size())
@@ -300,8 +307,8 @@ std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, Came
                     spec);
   const std::string left = spec.substr(prefix.size(), comma - prefix.size()), right = spec.substr(comma + 1);
   if (left == right) ThrowInputError("--source '{}': the left and the right camera are the same camera", spec);
-  std::unique_ptr<AravisCamera> left_camera = AravisCamera::Open(left, include_fake);  // left first: its name in errors
-  std::unique_ptr<AravisCamera> right_camera = AravisCamera::Open(right, include_fake);
+  std::unique_ptr<AravisCamera> left_camera = AravisCamera::Open(left, interfaces);  // left first: its name in errors
+  std::unique_ptr<AravisCamera> right_camera = AravisCamera::Open(right, interfaces);
   return std::make_unique<CameraPairSource>(spec, std::move(left_camera), std::move(right_camera), options);
 }
 

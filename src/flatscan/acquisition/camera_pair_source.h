@@ -58,8 +58,9 @@ class FakeScene {
   virtual cv::Size FrameSize() const = 0;
   virtual std::string Id(int64_t trigger) const = 0;
   // Makes the trigger's frames ready before the cameras are given their buffers (on the
-  // triggering thread): a fill that takes long on a fake camera's thread makes it miss
-  // ticks, and its frame comes ticks after the other camera's.
+  // triggering thread; on a fake line, a few pairs ahead): a fill that takes long on a
+  // fake camera's thread makes it miss ticks, and its frame comes ticks after the other
+  // camera's.
   virtual void Prepare(int64_t /*trigger*/) {}
   // Fills one camera's Mono8 frame (on that camera's thread).
   virtual void Fill(int64_t trigger, bool left, int width, int height, uint8_t* pixels) = 0;
@@ -116,10 +117,10 @@ class CameraPairSource : public PairSource {
   std::string settings_problem_;  // the active recipe's settings a camera refused (Next's thread)
 };
 
-// The source for `cameras:LEFT,RIGHT` (ids or serials; `include_fake` also finds Aravis's
-// in-process "Fake_1"). Throws InputError naming the spec or the camera.
+// The source for `cameras:LEFT,RIGHT` (ids or serials, found on `interfaces`). Throws
+// InputError naming the spec or the camera.
 std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, CameraSourceOptions options,
-                                                   bool include_fake = false);
+                                                   const CameraInterfaces& interfaces = {});
 
 // Two fake cameras (serials FAKE-LEFT, FAKE-RIGHT) showing `scene`.
 std::unique_ptr<CameraPairSource> MakeFakeSource(const std::string& name, std::shared_ptr<FakeScene> scene,

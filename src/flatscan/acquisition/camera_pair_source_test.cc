@@ -15,7 +15,9 @@
 #include <gtest/gtest.h>
 
 #include "flatscan/io/image_io.h"
+#include "flatscan/station/inspection_station.h"
 #include "flatscan/station/recipe.h"
+#include "flatscan/store/results_store.h"
 #include "flatscan/util/test_util.h"
 
 namespace flatscan {
@@ -195,13 +197,72 @@ TEST(CameraPairSource, TheRecipeSetsExposureAndGain) {
   EXPECT_FALSE(source->Next(milliseconds(2000))->not_measurable);
 }
 
+// Records what the station tells its publishers, in order.
+class EventLog : public RecordPublisher {
+ public:
+  void Publish(const StationRecord& record, const StationCounts&) override {
+    events.push_back(record.source_id + (record.inspection.measured ? " measured" : " not measured"));
+  }
+  void Readiness(bool ready, const std::string& reason, const StationCounts&) override {
+    events.push_back(ready ? "ready" : "not ready");
+    if (!ready) not_ready_reason = reason;
+  }
+  std::vector<std::string> events;
+  std::string not_ready_reason;
+};
+
+// A camera that loses frame after frame: each trigger still gets its record, the
+// station says it is not ready after not_ready_after of them in a row, and ready again
+// when a pair comes through.
+TEST(CameraPairSource, FramesLostInARowMakeTheStationNotReadyUntilOneComesThrough) {
+  testing::ScratchDir dir("fake_not_ready");
+  const auto sim = testing::RunFlatscan("simulate --preset compact --parts 1 --no-calibration --no-markers --seed 4 "
+                                        "-q -o " + (dir.path() / "data").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const fs::path data = dir.path() / "data";
+  {
+    std::ofstream csv(data / "pairs.csv");
+    csv << "id,left,right\n";
+    for (int k = 1; k <= 7; ++k) csv << fmt::format("p{},parts/part_000_left.png,parts/part_000_right.png\n", k);
+    std::ofstream(data / "shield.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.25\n"
+                                                "rig: rig.yml\nplane: plane_true.yml\n";
+  }
+  FakeTriggerFault drop;
+  drop.drop = true;
+  std::map<std::pair<int64_t, bool>, FakeTriggerFault> faults;
+  for (int64_t k = 2; k <= 5; ++k) faults[{k, true}] = drop;
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.frame_timeout = milliseconds(300);
+  const auto source = MakeFakeSource(
+      "aravis-fake:test", std::make_shared<FaultyScene>(MakeDatasetScene(data.string()), faults), options);
+  auto store = OpenSqliteStore((dir.path() / "results.db").string(), true);
+  StationOptions station_options;
+  station_options.until_idle_s = 1;
+  station_options.not_ready_after = 3;
+  InspectionStation station({LoadRecipe(data / "shield.yml")}, *source, *store, station_options);
+  EventLog log;
+  station.AddPublisher(&log);
+  const std::atomic<bool> stop{false};
+  const StationCounts counts = station.Run(stop);
+  EXPECT_EQ(counts.committed, 7);  // one record per trigger
+  EXPECT_EQ(source->Triggers(), 7);
+  EXPECT_EQ(log.events, (std::vector<std::string>{"p1 measured", "p2 not measured", "p3 not measured",
+                                                  "p4 not measured", "not ready", "p5 not measured", "p6 measured",
+                                                  "ready", "p7 measured"}));
+  EXPECT_EQ(log.not_ready_reason, "3 pairs in a row not delivered by aravis-fake:test; the last: the left camera gave "
+                                  "no frame within 300 ms of trigger 4");
+}
+
 TEST(CameraPairSource, NamesACameraSpecItCannotUse) {
-  EXPECT_EQ(testing::InputErrorOf([] { MakeCameraSource("cameras:A", {}); }),
+  const CameraInterfaces fake = CameraInterfaces::FakeOnly();  // nothing sent on a network
+  EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:A", {}, fake); }),
             "--source 'cameras:A': expected cameras:LEFT,RIGHT (each camera's id or serial, from `flatscan cameras`)");
-  EXPECT_EQ(testing::InputErrorOf([] { MakeCameraSource("cameras:A,A", {}); }),
+  EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:A,A", {}, fake); }),
             "--source 'cameras:A,A': the left and the right camera are the same camera");
-  const std::string missing = testing::InputErrorOf([] { MakeCameraSource("cameras:NO-SUCH-1,NO-SUCH-2", {}); });
-  EXPECT_NE(missing.find("camera 'NO-SUCH-1': not found among the "), std::string::npos) << missing;
+  EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:NO-SUCH-1,Fake_1", {}, fake); }),
+            "camera 'NO-SUCH-1': not found among the 1 GenICam camera(s) found (`flatscan cameras` lists them by id "
+            "and serial)");
 }
 
 }  // namespace

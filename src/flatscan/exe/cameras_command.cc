@@ -26,13 +26,16 @@ class CamerasCommand : public Command {
     sub_->add_option("--timeout", timeout_ms_, "milliseconds to wait for each frame with --test")
         ->default_val(timeout_ms_)
         ->check(CLI::Range(1, 600000));
-    sub_->add_flag("--include-fake", include_fake_,
-                   "also Aravis's in-process fake camera (id Fake_1): to try flatscan without cameras");
+    sub_->add_option("--interfaces", interfaces_,
+                     "where to look: a comma-separated list of gige (GigE Vision discovery, a broadcast on every "
+                     "network interface), usb3, fake (Aravis's in-process fake camera, id Fake_1)")
+        ->default_val(interfaces_);
+    sub_->add_flag("--include-fake", include_fake_, "also the fake camera (as --interfaces gige,usb3,fake)");
   }
 
   int Run() override {
     if (!test_.empty()) return Test();
-    const std::vector<CameraInfo> cameras = ListCameras(include_fake_);
+    const std::vector<CameraInfo> cameras = ListCameras(Interfaces());
     if (json_option_->count() > 0) return WriteJson(cameras);
     if (cameras.empty()) {
       std::cout << "no GenICam camera found (GigE Vision: same subnet as a network interface, see docs/cameras.md; "
@@ -69,7 +72,7 @@ class CamerasCommand : public Command {
   }
 
   int Test() {
-    const auto camera = AravisCamera::Open(test_, include_fake_);
+    const auto camera = AravisCamera::Open(test_, Interfaces());
     const GrabStatistics s = camera->TestGrab(frames_, std::chrono::milliseconds(timeout_ms_));
     std::cout << fmt::format(
         "camera {}\n  frames: {} complete, {} incomplete, {} timed out\n  size: {} x {}, {}\n  frame rate: {:.1f} "
@@ -79,8 +82,14 @@ class CamerasCommand : public Command {
     return 0;
   }
 
+  CameraInterfaces Interfaces() const {
+    CameraInterfaces i = ParseCameraInterfaces(interfaces_, "--interfaces");
+    i.fake = i.fake || include_fake_;
+    return i;
+  }
+
   CLI::Option* json_option_ = nullptr;
-  std::string json_, test_;
+  std::string json_, test_, interfaces_ = "gige,usb3";
   int frames_ = 10, timeout_ms_ = 2000;
   bool include_fake_ = false;
 };

@@ -110,6 +110,11 @@ class StationCommand : public Command {
                      "sync")
         ->default_val(max_skew_ms_)
         ->check(IntegerIn(1, 10000));
+    sub_->add_option("--not-ready-after", not_ready_after_,
+                     "this many pairs in a row the source could not deliver (camera faults) make the station report "
+                     "itself not ready (status file, MQTT state, Modbus state 4) until a pair comes through; 0: never")
+        ->default_val(not_ready_after_)
+        ->check(IntegerIn(0, 1000000));
     sub_->add_option("--mqtt", mqtt_, "MQTT broker HOST:PORT: each record on flatscan/<station>/result (QoS 1), the "
                                       "state retained on flatscan/<station>/state (docs/line-outputs.md)");
     sub_->add_option("--mqtt-user", mqtt_user_, "MQTT user name");
@@ -141,6 +146,7 @@ class StationCommand : public Command {
     options.station_id = station_id_;
     options.software_version = FLATSCAN_VERSION;
     options.until_idle_s = until_idle_s_;
+    options.not_ready_after = not_ready_after_;
     std::unique_ptr<ImageArchive> archive;
     if (!archive_.empty()) archive = MakeArchive(recipes);
     StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,
@@ -303,7 +309,7 @@ class StationCommand : public Command {
   std::string source_, store_, station_id_, log_, status_, archive_;
   std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_, plant_store_, trigger_;
   std::optional<double> until_idle_s_, trigger_rate_hz_;
-  int frame_timeout_ms_ = 1000, max_skew_ms_ = 20;
+  int frame_timeout_ms_ = 1000, max_skew_ms_ = 20, not_ready_after_ = StationOptions{}.not_ready_after;
   double half_pair_timeout_s_ = 10;
   int keep_done_ = 1000;
 };

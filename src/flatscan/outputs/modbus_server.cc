@@ -62,7 +62,8 @@ ModbusServer::ModbusServer(const std::string& address, int port, size_t recipe_c
   }
   // A client that sends half a request must not hold the other clients: 1 s per request.
   modbus_set_indication_timeout(context_, 1, 0);
-  SetStateLocked(ModbusStationState::kReady);
+  running_ = true;
+  UpdateStateLocked();
   ShowLocked();
   thread_ = std::thread([this] { Serve(); });
   spdlog::info("Modbus TCP server on {}:{}", address, port);
@@ -85,8 +86,8 @@ void ModbusServer::Publish(const StationRecord& record, const StationCounts& /*c
     r.coverage_per_mille = Clamped(1000 * record.inspection.coverage, 1000);
   }
   std::lock_guard lock(mutex_);
-  if (triggers_waiting_ > 0 && --triggers_waiting_ == 0 && state_ == ModbusStationState::kBusy)
-    SetStateLocked(ModbusStationState::kReady);
+  if (triggers_waiting_ > 0) --triggers_waiting_;
+  UpdateStateLocked();
   pending_.push_back(r);
   if (pending_.size() > kMaxPending) {
     spdlog::warn("Modbus: result #{} dropped: the PLC has not acknowledged the last {} results",
@@ -99,12 +100,21 @@ void ModbusServer::Publish(const StationRecord& record, const StationCounts& /*c
 
 void ModbusServer::Stopped(const StationCounts& /*counts*/) {
   std::lock_guard lock(mutex_);
-  SetStateLocked(ModbusStationState::kNotReady);
+  running_ = false;
+  UpdateStateLocked();
+}
+
+void ModbusServer::Readiness(bool ready, const std::string& /*reason*/, const StationCounts& /*counts*/) {
+  std::lock_guard lock(mutex_);
+  source_failing_ = !ready;
+  UpdateStateLocked();
 }
 
 void ModbusServer::Failed(const StationCounts& /*counts*/, const std::string& /*reason*/) {
   std::lock_guard lock(mutex_);
-  SetStateLocked(ModbusStationState::kError);
+  running_ = false;
+  failed_ = true;
+  UpdateStateLocked();
 }
 
 void ModbusServer::SetTrigger(std::function<void()> trigger) {
@@ -119,8 +129,12 @@ uint16_t ModbusServer::Register(ModbusRegister r) const {
 
 void ModbusServer::SetLocked(ModbusRegister r, uint16_t value) { registers_->tab_registers[r] = value; }
 
-void ModbusServer::SetStateLocked(ModbusStationState state) {
-  state_ = state;
+void ModbusServer::UpdateStateLocked() {
+  ModbusStationState state = ModbusStationState::kReady;
+  if (failed_) state = ModbusStationState::kError;
+  else if (!running_) state = ModbusStationState::kNotReady;
+  else if (source_failing_) state = ModbusStationState::kSourceFailing;
+  else if (triggers_waiting_ > 0) state = ModbusStationState::kBusy;
   SetLocked(kStationState, static_cast<uint16_t>(state));
 }
 
@@ -205,10 +219,9 @@ void ModbusServer::AfterWriteLocked(const uint8_t* request, int header) {
     r[kRecipeRequest] = 0;
   }
   if (Writes(request, header, kTrigger) && r[kTrigger] != 0) {
-    if (trigger_ && state_ != ModbusStationState::kNotReady && state_ != ModbusStationState::kError) {
+    if (trigger_ && running_) {
       trigger_();
       ++triggers_waiting_;
-      state_ = ModbusStationState::kBusy;
     } else {
       spdlog::warn("Modbus: trigger refused: {}", trigger_ ? "the station is not ready"
                                                            : "the station's source is not triggered (--trigger software)");
@@ -217,7 +230,7 @@ void ModbusServer::AfterWriteLocked(const uint8_t* request, int header) {
   }
   r[kActiveRecipe] = active_recipe_;
   r[kHeartbeat] = heartbeat_;
-  r[kStationState] = static_cast<uint16_t>(state_);
+  UpdateStateLocked();
   ShowLocked();
 }
 

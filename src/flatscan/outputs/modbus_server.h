@@ -50,7 +50,9 @@ enum ModbusRegister : int {
   kRegisterCount = 13,
 };
 
-enum class ModbusStationState : uint16_t { kNotReady = 0, kReady = 1, kBusy = 2, kError = 3 };
+// kSourceFailing: running, but its source (the cameras) failed not_ready_after pairs in a
+// row; triggers are still taken (a pair that comes through makes it ready again).
+enum class ModbusStationState : uint16_t { kNotReady = 0, kReady = 1, kBusy = 2, kError = 3, kSourceFailing = 4 };
 
 // From the record's keys: measured, verdict, marginal.
 enum class ModbusOutcome : uint16_t {
@@ -81,6 +83,7 @@ class ModbusServer : public RecordPublisher {
   void Publish(const StationRecord& record, const StationCounts& counts) override;
   void Stopped(const StationCounts& counts) override;
   void Failed(const StationCounts& counts, const std::string& reason) override;
+  void Readiness(bool ready, const std::string& reason, const StationCounts& counts) override;
 
   // A trigger from the PLC (kTrigger) calls `trigger` (from the server's thread) and
   // shows the station busy until the result of each trigger is published. Without one,
@@ -100,7 +103,7 @@ class ModbusServer : public RecordPublisher {
   void AfterWriteLocked(const uint8_t* request, int header);
   void ShowLocked();
   void SetLocked(ModbusRegister r, uint16_t value);
-  void SetStateLocked(ModbusStationState state);
+  void UpdateStateLocked();
 
   size_t recipe_count_;
   std::function<void(size_t)> switch_recipe_;
@@ -114,7 +117,8 @@ class ModbusServer : public RecordPublisher {
   uint32_t dropped_ = 0;
   // The station's own registers, rewritten after every write of a client.
   uint16_t heartbeat_ = 0, active_recipe_ = 0;
-  ModbusStationState state_ = ModbusStationState::kNotReady;
+  // The state (register 1) follows from these.
+  bool running_ = false, failed_ = false, source_failing_ = false;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

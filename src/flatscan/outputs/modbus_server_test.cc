@@ -195,10 +195,21 @@ TEST(ModbusServer, ATriggerShowsBusyUntilItsResult) {
     EXPECT_EQ(r[kSequenceLow], part);
     ASSERT_TRUE(plc.Write(kAcknowledge, r[kSequenceLow]));
   }
+  // The cameras fail pair after pair: state 4, and triggers are still taken (a pair that
+  // comes through is how the station finds its cameras back).
+  server.Readiness(false, "5 pairs in a row not delivered", StationCounts{});
+  EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kSourceFailing));
+  ASSERT_TRUE(plc.Write(kTrigger, 1));
+  EXPECT_EQ(triggers, 4);
+  EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kSourceFailing));
+  server.Readiness(true, "", StationCounts{});
+  EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kBusy));  // its result not yet shown
+  server.Publish(Record(4), StationCounts{});
+  EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kReady));
   server.Stopped(StationCounts{});
   ASSERT_TRUE(plc.Write(kTrigger, 1));  // a stopped station is not triggered
   EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kNotReady));
-  EXPECT_EQ(triggers, 3);
+  EXPECT_EQ(triggers, 4);
 }
 
 TEST(ModbusServer, AnAddressItCannotListenOnIsAnInputError) {

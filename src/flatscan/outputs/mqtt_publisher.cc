@@ -249,6 +249,10 @@ void MqttPublisher::RefillFromStore() {
 
 void MqttPublisher::Stopped(const StationCounts& /*counts*/) { EndSession("stopped"); }
 
+void MqttPublisher::Readiness(bool ready, const std::string& /*reason*/, const StationCounts& /*counts*/) {
+  PublishState(ready ? "ready" : "not_ready");
+}
+
 void MqttPublisher::Failed(const StationCounts& /*counts*/, const std::string& /*reason*/) { EndSession("error"); }
 
 // Hands a record to the connected client: it sends it (in order, at most 20 awaiting

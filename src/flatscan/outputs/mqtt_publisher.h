@@ -12,7 +12,8 @@
 // small cursor file beside the store, and a station that starts again sends the
 // records after it first (a cursor a crash left behind only repeats records).
 //
-// State payloads (plain text, retained): "ready" while the station runs, "stopped"
+// State payloads (plain text, retained): "ready" while the station runs ("not_ready"
+// while its source fails pair after pair: InspectionStation's not_ready_after), "stopped"
 // after a clean stop, "error" when it stopped because it could not record, and
 // "offline" (the last will, sent by the broker) when the connection was lost.
 #include <atomic>
@@ -68,6 +69,7 @@ class MqttPublisher : public RecordPublisher {
   void Publish(const StationRecord& record, const StationCounts& counts) override;
   void Stopped(const StationCounts& counts) override;
   void Failed(const StationCounts& counts, const std::string& reason) override;
+  void Readiness(bool ready, const std::string& reason, const StationCounts& counts) override;
 
   // Waits until the broker has acknowledged every record given so far, at most
   // `timeout`; whether it did.

@@ -70,6 +70,10 @@ TEST(MqttPublisher, SubscriberGetsEveryRecordOnceInOrderAndTheRetainedState) {
     EXPECT_EQ(subscriber.States().back(), "ready");
     for (int i = 1; i <= 50; ++i) CommitAndPublish(*store, publisher, i);
     EXPECT_TRUE(publisher.Drain(std::chrono::seconds(10)));
+    publisher.Readiness(false, "5 pairs in a row not delivered", StationCounts{});  // the cameras fail
+    ASSERT_TRUE(testing::WaitFor([&] { return subscriber.States().back() == "not_ready"; }, 10));
+    publisher.Readiness(true, "", StationCounts{});
+    ASSERT_TRUE(testing::WaitFor([&] { return subscriber.States().back() == "ready"; }, 10));
     publisher.Stopped(StationCounts{});
   }
   ASSERT_TRUE(testing::WaitFor([&] { return subscriber.Sequences().size() >= 50; }, 10));

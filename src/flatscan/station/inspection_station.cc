@@ -3,6 +3,7 @@
 #include <chrono>
 #include <utility>
 
+#include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_pipeline.h>
@@ -144,6 +145,25 @@ void InspectionStation::Deliver(Measured& measured) {
   }
   SourceDone(pair);
   Publish(record);
+  TrackSourceFaults(pair, record);
+}
+
+void InspectionStation::TrackSourceFaults(const SourcePair& pair, const StationRecord& record) {
+  const int limit = options_.not_ready_after;
+  if (limit <= 0) return;
+  if (pair.source_fault) {
+    if (++source_faults_ != limit) return;
+    const std::string reason = fmt::format("{} pairs in a row not delivered by {}; the last: {}", limit,
+                                           source_.Name(), record.inspection.error);
+    spdlog::error("station {}: not ready: {}", options_.station_id, reason);
+    Notify("reporting not ready", [&](RecordPublisher& p) { p.Readiness(false, reason, counts_); });
+    return;
+  }
+  if (source_faults_ >= limit) {
+    spdlog::info("station {}: ready again ({} came through)", options_.station_id, record.source_id);
+    Notify("reporting ready", [&](RecordPublisher& p) { p.Readiness(true, "", counts_); });
+  }
+  source_faults_ = 0;
 }
 
 void InspectionStation::SkipRecorded(const SourcePair& pair) {

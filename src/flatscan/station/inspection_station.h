@@ -33,6 +33,11 @@ struct StationOptions {
   // flight; nullopt: run until `stop` is set.
   std::optional<double> until_idle_s;
   int max_in_flight = 4;  // pairs being measured at once (2 cores: 2 measuring, 2 queued)
+  // This many pairs in a row that the source could not deliver (SourcePair::source_fault)
+  // make the station report itself not ready (RecordPublisher::Readiness), until a pair
+  // comes through; 0: never. 5: a camera that lost one frame is not a station that
+  // cannot work, five in a row is (a cable, a camera gone, a trigger line dead).
+  int not_ready_after = 5;
 };
 
 struct StationCounts {
@@ -49,6 +54,10 @@ class RecordPublisher {
  public:
   virtual ~RecordPublisher() = default;
   virtual void Publish(const StationRecord& record, const StationCounts& counts) = 0;
+  // The station became not ready (`ready` false: the source failed not_ready_after pairs
+  // in a row, `reason` says how) or ready again (a pair came through). Called after the
+  // record that changed it was published.
+  virtual void Readiness(bool /*ready*/, const std::string& /*reason*/, const StationCounts& /*counts*/) {}
   // The station stopped (a signal or idle): a last status.
   virtual void Stopped(const StationCounts& /*counts*/) {}
   // The station stops because it cannot record (`reason`).
@@ -85,6 +94,7 @@ class InspectionStation {
   void SkipRecorded(const SourcePair& pair);
   void SourceDone(const SourcePair& pair);
   void Publish(const StationRecord& record);
+  void TrackSourceFaults(const SourcePair& pair, const StationRecord& record);
   void Notify(const std::string& what, const std::function<void(RecordPublisher&)>& f);
 
   std::vector<LoadedRecipe> recipes_;
@@ -95,6 +105,7 @@ class InspectionStation {
   ImageArchive* archive_ = nullptr;
   std::atomic<size_t> active_{0};
   StationCounts counts_;
+  int source_faults_ = 0;  // pairs in a row the source could not deliver (the output stage's)
 };
 
 }  // namespace flatscan

@@ -20,6 +20,10 @@ struct SourcePair {
   std::string source_id;                    // the pair's id in its source
   std::filesystem::path left, right;        // image files (a file source)
   std::optional<std::string> not_measurable;  // why it cannot be measured (a half pair past its timeout)
+  // Not measurable because the source could not deliver it (a camera's frame lost,
+  // incomplete or out of sync), not because of the part: the station counts these to
+  // say it is not ready (StationOptions::not_ready_after).
+  bool source_fault = false;
   // Frames in memory (a camera source), measured where they are: `frames` holds the
   // camera buffers they point into until the pair is done.
   cv::Mat1b left_image, right_image;

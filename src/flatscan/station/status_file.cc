@@ -21,7 +21,13 @@ void StatusFile::Publish(const StationRecord& record, const StationCounts& count
   last_sequence_ = record.sequence;
   recipe_name_ = record.recipe_name;
   if (!record.inspection.measured) last_error_ = record.source_id + ": " + record.inspection.error;
-  Write(counts, "running");
+  Write(counts, running_state_);
+}
+
+void StatusFile::Readiness(bool ready, const std::string& reason, const StationCounts& counts) {
+  running_state_ = ready ? "running" : "not_ready";
+  not_ready_reason_ = ready ? "" : reason;
+  Write(counts, running_state_);
 }
 
 void StatusFile::Stopped(const StationCounts& counts) { Write(counts, "stopped"); }
@@ -47,7 +53,8 @@ void StatusFile::Write(const StationCounts& c, const char* state) {
       {"yield", measured > 0 ? nlohmann::json(double(c.pass) / double(measured)) : nlohmann::json(nullptr)},
       {"rate_per_min", recent_.size()},
       {"last_sequence", last_sequence_},
-      {"last_error", last_error_.empty() ? nlohmann::json(nullptr) : nlohmann::json(last_error_)}};
+      {"last_error", last_error_.empty() ? nlohmann::json(nullptr) : nlohmann::json(last_error_)},
+      {"not_ready_reason", not_ready_reason_.empty() ? nlohmann::json(nullptr) : nlohmann::json(not_ready_reason_)}};
   WriteTextFileAtomically(path_, j.dump(2) + "\n");
 }
 
