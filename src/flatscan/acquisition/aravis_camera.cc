@@ -1,5 +1,6 @@
 #include "flatscan/acquisition/aravis_camera.h"
 
+#include <arpa/inet.h>
 #include <arv.h>
 
 #include <algorithm>
@@ -31,28 +32,52 @@ void Check(GError* error, const std::string& what) {
   ThrowInputError("{}: {}", what, message);
 }
 
-// A fake camera's fill and the tag of each buffer given to it by a trigger.
+// A fake camera's fill, and what each buffer given to it by a trigger carries: the
+// trigger's tag and when the camera got the trigger.
 struct FakeContext {
+  struct Triggered {
+    uint64_t tag = 0;
+    int64_t at_ns = 0;  // host clock, UTC
+  };
   FakeFill fill;
   std::mutex mutex;
-  std::map<ArvBuffer*, uint64_t> tags;
-  bool count_frames = false;  // free running as on a line: the n-th frame gets tag n
+  std::map<ArvBuffer*, Triggered> triggered;
+  // Free running as on a line: the n-th frame gets tag n, and the line's n-th pulse
+  // as its time, first_pulse_ns + (n - 1) * period_ns.
+  bool count_frames = false;
   uint64_t frames = 0;
+  int64_t first_pulse_ns = 0, period_ns = 0;
 };
+
+// The host clock (UTC) in ns, as the source's trigger times are (not g_get_real_time's
+// microseconds: a frame stamped in the trigger's own microsecond would look older than it).
+int64_t HostNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
 
 // The fake camera's fill callback (on its stream thread): the caller's FakeFill.
 void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat) {
   auto& fake = *static_cast<FakeContext*>(data);
   const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
-  uint64_t tag = 0;
+  FakeContext::Triggered t;
   {
     std::lock_guard lock(fake.mutex);
-    if (fake.count_frames) tag = ++fake.frames;
-    else if (const auto it = fake.tags.find(buffer); it != fake.tags.end()) tag = it->second;
+    if (fake.count_frames) {
+      t.tag = ++fake.frames;
+      t.at_ns = fake.first_pulse_ns + int64_t(t.tag - 1) * fake.period_ns;
+    } else if (const auto it = fake.triggered.find(buffer); it != fake.triggered.end()) {
+      t = it->second;
+      fake.triggered.erase(it);
+    }
   }
   // The only public way to the buffer's memory is const; the fake camera owns it here.
   auto* pixels = static_cast<uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-  fake.fill(width, height, pixels, tag);
+  fake.fill(width, height, pixels, t.tag);
+  // Its time is when it was triggered (its exposure), not when its thread came to fill
+  // it: a loaded machine delays the thread, which would put the two fakes' frames of
+  // one trigger apart (103 ms, measured under ctest -j2 beside a build).
+  if (t.at_ns > 0) arv_buffer_set_system_timestamp(buffer, guint64(t.at_ns));
 }
 
 constexpr uint8_t kDarkBelow = 13;  // 5% of full scale
@@ -95,8 +120,15 @@ struct StreamState {
       return;
     }
     std::lock_guard lock(mutex);
-    if (undersized.erase(buffer)) g_object_unref(buffer);
-    else spare.push_back(buffer);
+    if (undersized.erase(buffer)) {  // never filled: its trigger is forgotten here
+      {
+        std::lock_guard fake_lock(fake_context->mutex);
+        fake_context->triggered.erase(buffer);
+      }
+      g_object_unref(buffer);
+    } else {
+      spare.push_back(buffer);
+    }
   }
 };
 
@@ -118,11 +150,24 @@ CameraInterfaces ParseCameraInterfaces(const std::string& list, const std::strin
   return interfaces;
 }
 
-std::vector<CameraInfo> ListCameras(const CameraInterfaces& interfaces) {
-  std::lock_guard lock(DiscoveryMutex());
+namespace {
+
+void EnableInterfacesLocked(const CameraInterfaces& interfaces) {
   for (const auto& [id, on] : {std::pair{"GigEVision", interfaces.gige}, std::pair{"USB3Vision", interfaces.usb3},
                                std::pair{"Fake", interfaces.fake}})
     on ? arv_enable_interface(id) : arv_disable_interface(id);
+}
+
+bool IsIpv4Address(const std::string& name) {
+  in_addr address{};
+  return inet_pton(AF_INET, name.c_str(), &address) == 1;
+}
+
+}  // namespace
+
+std::vector<CameraInfo> ListCameras(const CameraInterfaces& interfaces) {
+  std::lock_guard lock(DiscoveryMutex());
+  EnableInterfacesLocked(interfaces);
   arv_update_device_list();
   std::vector<CameraInfo> cameras;
   for (unsigned i = 0; i < arv_get_n_devices(); ++i)
@@ -178,6 +223,7 @@ AravisCamera::AravisCamera(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) 
 AravisCamera::~AravisCamera() = default;
 
 std::unique_ptr<AravisCamera> AravisCamera::Open(const std::string& name, const CameraInterfaces& interfaces) {
+  if (interfaces.gige && IsIpv4Address(name)) return OpenGigEByAddress(name);
   const std::vector<CameraInfo> cameras = ListCameras(interfaces);
   const auto it = std::find_if(cameras.begin(), cameras.end(),
                                [&](const CameraInfo& c) { return c.id == name || c.serial == name; });
@@ -191,6 +237,20 @@ std::unique_ptr<AravisCamera> AravisCamera::Open(const std::string& name, const 
   Check(error, fmt::format("camera '{}': cannot open it", name));
   return std::unique_ptr<AravisCamera>(
       new AravisCamera(std::make_unique<Impl>(camera, fmt::format("{} {} ({})", it->vendor, it->model, it->serial))));
+}
+
+// Aravis talks to that address alone (a camera on the subnet of one of the host's
+// interfaces is not even searched for): no discovery broadcast.
+std::unique_ptr<AravisCamera> AravisCamera::OpenGigEByAddress(const std::string& address) {
+  std::lock_guard lock(DiscoveryMutex());
+  EnableInterfacesLocked({true, false, false});
+  GError* error = nullptr;
+  ArvCamera* camera = arv_camera_new(address.c_str(), &error);
+  Check(error, fmt::format("camera '{}': cannot open the GigE Vision camera at this address", address));
+  const std::string name = fmt::format("{} {} ({}, {})", Text(arv_camera_get_vendor_name(camera, nullptr)),
+                                       Text(arv_camera_get_model_name(camera, nullptr)),
+                                       Text(arv_camera_get_device_serial_number(camera, nullptr)), address);
+  return std::unique_ptr<AravisCamera>(new AravisCamera(std::make_unique<Impl>(camera, name)));
 }
 
 std::unique_ptr<AravisCamera> AravisCamera::OpenFake(const std::string& serial, int width, int height, FakeFill fill) {
@@ -376,7 +436,7 @@ void AravisCamera::Trigger(uint64_t tag, const FakeTriggerFault& fault) {
   if (!buffer) return;  // every buffer is held: the frame is lost, as on a camera that overruns
   {
     std::lock_guard lock(state.fake_context->mutex);
-    state.fake_context->tags[buffer] = tag;
+    state.fake_context->triggered[buffer] = {tag, HostNowNs()};  // after the delay: the camera's trigger
   }
   arv_stream_push_buffer(state.stream, buffer);
 }
@@ -394,7 +454,7 @@ std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wai
   frame.timestamp_ns = int64_t(arv_buffer_get_system_timestamp(buffer));
   // A buffer the camera could not fill (a fake's too-small buffer) has no timestamp:
   // it arrived now.
-  if (frame.timestamp_ns == 0) frame.timestamp_ns = int64_t(g_get_real_time()) * 1000;
+  if (frame.timestamp_ns == 0) frame.timestamp_ns = HostNowNs();
   frame.frame_id = arv_buffer_get_frame_id(buffer);
   frame.problem = BufferProblem(arv_buffer_get_status(buffer));
   if (!frame.problem.empty()) return frame;
@@ -417,6 +477,13 @@ std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wai
 void AravisCamera::QueueFakeLine() {
   FLATSCAN_CHECK(impl_->stream_ && IsFake() && !impl_->stream_->per_trigger);
   StreamState& state = *impl_->stream_;
+  {
+    // The line's first pulse: the fake's next tick (its ticks are multiples of its period).
+    const int64_t period_ns = int64_t(impl_->fake_period_us_) * 1000;
+    std::lock_guard lock(impl_->fake_->mutex);
+    impl_->fake_->period_ns = period_ns;
+    impl_->fake_->first_pulse_ns = (HostNowNs() / period_ns + 1) * period_ns;
+  }
   std::lock_guard lock(state.mutex);
   for (ArvBuffer* buffer : state.spare) arv_stream_push_buffer(state.stream, buffer);
   state.spare.clear();

@@ -98,9 +98,10 @@ struct FakeTriggerFault {
 
 class AravisCamera {
  public:
-  // The camera whose id or serial number is `name` (discovery first, on `interfaces`).
-  // Throws InputError naming it and how many cameras were found when there is none
-  // such, or when it cannot be opened.
+  // The camera whose id or serial number is `name` (discovery first, on `interfaces`),
+  // or, with gige among them, the GigE Vision camera at IPv4 address `name` (no
+  // discovery: nothing is sent but to that address). Throws InputError naming it and how
+  // many cameras were found when there is none such, or when it cannot be opened.
   static std::unique_ptr<AravisCamera> Open(const std::string& name, const CameraInterfaces& interfaces);
   // An in-process fake camera with this serial number, width x height Mono8, its
   // frames filled by `fill` (tests, demos, `--source aravis-fake:DIR`).
@@ -143,6 +144,7 @@ class AravisCamera {
 
  private:
   class Impl;
+  static std::unique_ptr<AravisCamera> OpenGigEByAddress(const std::string& address);
   explicit AravisCamera(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };

@@ -39,5 +39,33 @@ TEST(CamerasCommand, ListsAndTestsTheFakeCamera) {
       << bad.err;
 }
 
+// The GigE Vision protocol itself over loopback: Aravis's fake GigE camera
+// (arv-fake-gv-camera-0.8, aravis-tools) listening on 127.0.0.1, opened by its address
+// (no discovery broadcast), a test grab of real GVSP packets. GVCP's port is 3956 by the
+// standard (the fake camera has no other): this is the only test that uses it.
+TEST(CamerasCommand, TestsAGigEVisionCameraByItsAddressOverLoopback) {
+  testing::ScratchDir dir("gige_fake");
+  testing::BackgroundProcess camera("arv-fake-gv-camera-0.8", {"-i", "127.0.0.1", "-s", "GV-TEST-1"},
+                                    dir.path() / "camera.log");
+  ASSERT_TRUE(camera.started());
+  testing::CommandResult grab;
+  // The camera takes a moment to listen: a few tries.
+  ASSERT_TRUE(testing::WaitFor(
+      [&] {
+        grab = testing::RunFlatscan("cameras --interfaces gige --test 127.0.0.1 --frames 5", 30);
+        return grab.exit_code == 0;
+      },
+      20))
+      << grab.err;
+  EXPECT_NE(grab.out.find("camera Aravis Fake (GV-TEST-1, 127.0.0.1)"), std::string::npos) << grab.out;
+  EXPECT_NE(grab.out.find("frames: 5 complete, 0 incomplete, 0 timed out"), std::string::npos) << grab.out;
+  EXPECT_NE(grab.out.find("size: 512 x 512, Mono8"), std::string::npos) << grab.out;
+  const auto absent = testing::RunFlatscan("cameras --interfaces gige --test 127.0.0.9 --frames 1", 30);
+  EXPECT_EQ(absent.exit_code, 2);
+  EXPECT_NE(absent.err.find("camera '127.0.0.9': cannot open the GigE Vision camera at this address: "),
+            std::string::npos)
+      << absent.err;
+}
+
 }  // namespace
 }  // namespace flatscan
