@@ -49,13 +49,6 @@ struct FakeContext {
   int64_t first_pulse_ns = 0, period_ns = 0;
 };
 
-// The host clock (UTC) in ns, as the source's trigger times are (not g_get_real_time's
-// microseconds: a frame stamped in the trigger's own microsecond would look older than it).
-int64_t HostNowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 // The fake camera's fill callback (on its stream thread): the caller's FakeFill.
 void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat) {
   auto& fake = *static_cast<FakeContext*>(data);
@@ -133,6 +126,11 @@ struct StreamState {
 };
 
 }  // namespace
+
+int64_t HostClockNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
 
 CameraInterfaces ParseCameraInterfaces(const std::string& list, const std::string& option) {
   CameraInterfaces interfaces{false, false, false};
@@ -436,7 +434,7 @@ void AravisCamera::Trigger(uint64_t tag, const FakeTriggerFault& fault) {
   if (!buffer) return;  // every buffer is held: the frame is lost, as on a camera that overruns
   {
     std::lock_guard lock(state.fake_context->mutex);
-    state.fake_context->triggered[buffer] = {tag, HostNowNs()};  // after the delay: the camera's trigger
+    state.fake_context->triggered[buffer] = {tag, HostClockNs()};  // after the delay: the camera's trigger
   }
   arv_stream_push_buffer(state.stream, buffer);
 }
@@ -454,7 +452,7 @@ std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wai
   frame.timestamp_ns = int64_t(arv_buffer_get_system_timestamp(buffer));
   // A buffer the camera could not fill (a fake's too-small buffer) has no timestamp:
   // it arrived now.
-  if (frame.timestamp_ns == 0) frame.timestamp_ns = HostNowNs();
+  if (frame.timestamp_ns == 0) frame.timestamp_ns = HostClockNs();
   frame.frame_id = arv_buffer_get_frame_id(buffer);
   frame.problem = BufferProblem(arv_buffer_get_status(buffer));
   if (!frame.problem.empty()) return frame;
@@ -482,7 +480,7 @@ void AravisCamera::QueueFakeLine() {
     const int64_t period_ns = int64_t(impl_->fake_period_us_) * 1000;
     std::lock_guard lock(impl_->fake_->mutex);
     impl_->fake_->period_ns = period_ns;
-    impl_->fake_->first_pulse_ns = (HostNowNs() / period_ns + 1) * period_ns;
+    impl_->fake_->first_pulse_ns = (HostClockNs() / period_ns + 1) * period_ns;
   }
   std::lock_guard lock(state.mutex);
   for (ArvBuffer* buffer : state.spare) arv_stream_push_buffer(state.stream, buffer);

@@ -65,6 +65,11 @@ using FakeFill = std::function<void(int width, int height, uint8_t* pixels, uint
 
 // One frame as the camera delivered it. `image` points into the camera's buffer (no
 // copy); the buffer goes back to the camera once the last copy of `memory` is gone.
+// The host clock (UTC) in ns: the clock of CameraFrame::timestamp_ns and of a source's
+// trigger times (not g_get_real_time's microseconds: a frame stamped in its trigger's own
+// microsecond would look older than the trigger).
+int64_t HostClockNs();
+
 struct CameraFrame {
   cv::Mat1b image;                     // empty when the frame is not complete
   std::shared_ptr<const void> memory;  // holds the buffer
@@ -138,8 +143,8 @@ class AravisCamera {
   // source queues both fakes' between two ticks, so that their n-th frames match).
   void QueueFakeLine();
   // A fake camera's frames come at multiples of its frame period (host clock): waits
-  // until the next tick is at least `margin` away, so that two fake cameras given a
-  // buffer each now fill them at the same tick. Returns at once for a real camera.
+  // until the next tick is at least `margin` away, so that two fake lines queued now
+  // take the same tick as their first pulse. Returns at once for a real camera.
   void AwayFromFakeTick(std::chrono::microseconds margin) const;
 
  private:

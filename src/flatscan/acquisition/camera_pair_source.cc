@@ -23,13 +23,8 @@ namespace {
 using std::chrono::microseconds;
 using std::chrono::milliseconds;
 
-int64_t HostNowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-// Two fake cameras given a buffer each fill them at the same tick unless the tick falls
-// between the two: keep this far from one.
+// Two fake lines queued one after the other take the same first pulse unless a tick
+// falls between the two: keep this far from one.
 constexpr microseconds kFakeTickMargin{800};
 // On a fake line the frames come at every tick whether taken or not: the scene's frames
 // are prepared this many pairs ahead of the pair taken.
@@ -153,8 +148,7 @@ void CameraPairSource::Trigger() {
     trigger = fired_ + 1;
   }
   if (scene_) scene_->Prepare(trigger);
-  left_->AwayFromFakeTick(kFakeTickMargin);
-  Fired fired{trigger, HostNowNs(), "", ""};
+  Fired fired{trigger, HostClockNs(), "", ""};
   fired.id = IdFor(trigger, fired.fired_ns);
   for (const bool left : {true, false}) {
     try {
@@ -223,7 +217,7 @@ std::optional<SourcePair> CameraPairSource::NextTriggered(milliseconds wait) {
 std::optional<CameraFrame> CameraPairSource::FrameFor(AravisCamera& camera, const Fired& fired) {
   const int64_t deadline_ns = fired.fired_ns + int64_t(options_.frame_timeout.count()) * 1'000'000;
   for (;;) {
-    const int64_t left_ns = std::max<int64_t>(0, deadline_ns - HostNowNs());
+    const int64_t left_ns = std::max<int64_t>(0, deadline_ns - HostClockNs());
     std::optional<CameraFrame> frame = camera.NextFrame(microseconds(left_ns / 1000));
     if (!frame) return std::nullopt;
     if (frame->timestamp_ns >= fired.fired_ns) return frame;
