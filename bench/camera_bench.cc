@@ -25,36 +25,19 @@
 #include <tbb/global_control.h>
 
 #include "flatscan/acquisition/camera_pair_source.h"
-#include "flatscan/simulation/dataset.h"
 #include "flatscan/station/inspection_station.h"
 #include "flatscan/station/rate_trigger.h"
 #include "flatscan/store/results_store.h"
+#include "paper_pair.h"
 
 namespace flatscan {
 namespace {
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
-// One paper-preset part's two images, shown at every trigger, and the recipe that measures it.
-struct Frames {
-  cv::Mat1b left, right;
-  LoadedRecipe recipe;
-  Frames() {
-    const Station station = BuildStation(ScenePreset("paper"));
-    Random rng(7);
-    const SimulatedPart part = SampleSimulatedPart(station, 0, rng);
-    const auto pose = part.shots[0].truth.support_from_part;
-    left = RenderPartImage(station, RigSide::kLeft, part.geometry, pose, 1, false);
-    right = RenderPartImage(station, RigSide::kRight, part.geometry, pose, 2, false);
-    recipe.recipe.name = "bench";
-    recipe.recipe.params.thickness_mm = part.geometry.SideHeight();
-    recipe.rig = station.rig;
-    recipe.plane = station.plane;
-  }
-};
-
-const Frames& TheFrames() {
-  static const Frames frames;
+// The pair shown at every trigger.
+const PaperPair& TheFrames() {
+  static const PaperPair frames = RenderPaperPair();
   return frames;
 }
 
@@ -89,7 +72,7 @@ double ProcessCpuSeconds() {
 double cpu_us_per_pair[2] = {0, 0};  // [0] one copy of a pair, [1] our side of the camera path
 
 void BM_CopyFramePair(benchmark::State& state) {
-  const Frames& f = TheFrames();
+  const PaperPair& f = TheFrames();
   cv::Mat1b left(f.left.size()), right(f.right.size());
   const double cpu0 = ThreadCpuSeconds();
   for (auto _ : state) {

@@ -16,10 +16,10 @@
 #include <tbb/global_control.h>
 
 #include "flatscan/io/image_io.h"
-#include "flatscan/simulation/dataset.h"
 #include "flatscan/station/inspection_station.h"
 #include "flatscan/store/results_store.h"
 #include "flatscan/util/ordered_parallel.h"
+#include "paper_pair.h"
 
 namespace flatscan {
 namespace {
@@ -36,19 +36,13 @@ struct Files {
   Files() {
     fs::remove_all(dir);
     fs::create_directories(dir);
-    const Station station = BuildStation(ScenePreset("paper"));
-    Random rng(7);
-    const SimulatedPart part = SampleSimulatedPart(station, 0, rng);
-    const auto pose = part.shots[0].truth.support_from_part;
-    cv::imwrite((dir / "left.png").string(), RenderPartImage(station, RigSide::kLeft, part.geometry, pose, 1, false));
-    cv::imwrite((dir / "right.png").string(), RenderPartImage(station, RigSide::kRight, part.geometry, pose, 2, false));
+    const PaperPair pair = RenderPaperPair();
+    cv::imwrite((dir / "left.png").string(), pair.left);
+    cv::imwrite((dir / "right.png").string(), pair.right);
     std::ofstream csv(dir / "pairs.csv");
     csv << "id,left,right\n";
     for (int i = 0; i < kPairs; ++i) csv << fmt::format("p{},left.png,right.png\n", i);
-    recipe.recipe.name = "bench";
-    recipe.recipe.params.thickness_mm = part.geometry.SideHeight();
-    recipe.rig = station.rig;
-    recipe.plane = station.plane;
+    recipe = pair.recipe;
   }
 };
 
