@@ -39,8 +39,7 @@ struct FramePair {
 // the trigger (or ahead, on a fake line); a frame not prepared is decoded as it is filled.
 class DatasetScene : public FakeScene {
  public:
-  explicit DatasetScene(const std::string& dir)
-      : pairs_(ReadPairsCsv(std::filesystem::path(dir) / "pairs.csv")) {}
+  explicit DatasetScene(std::vector<PairEntry> pairs) : pairs_(std::move(pairs)) {}
   int64_t Triggers() const override { return int64_t(pairs_.size()); }
   std::string Id(int64_t trigger) const override { return pairs_.at(size_t(trigger - 1)).id; }
   void Prepare(int64_t trigger) override {
@@ -297,16 +296,23 @@ std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, Came
   const std::string prefix = "cameras:";
   const auto comma = spec.find(',');
   if (spec.rfind(prefix, 0) != 0 || comma == std::string::npos || comma == prefix.size() || comma + 1 == spec.size())
-    ThrowInputError("--source '{}': expected cameras:LEFT,RIGHT (each camera's id or serial, from `flatscan cameras`)",
+    ThrowFieldError("source", "'{}': expected cameras:LEFT,RIGHT (each camera's id or serial, from `flatscan cameras`)",
                     spec);
   const std::string left = spec.substr(prefix.size(), comma - prefix.size()), right = spec.substr(comma + 1);
-  if (left == right) ThrowInputError("--source '{}': the left and the right camera are the same camera", spec);
+  if (left == right) ThrowFieldError("source", "'{}': the left and the right camera are the same camera", spec);
   std::unique_ptr<AravisCamera> left_camera = AravisCamera::Open(left, interfaces);  // left first: its name in errors
   std::unique_ptr<AravisCamera> right_camera = AravisCamera::Open(right, interfaces);
   return std::make_unique<CameraPairSource>(spec, std::move(left_camera), std::move(right_camera), options);
 }
 
-std::shared_ptr<FakeScene> MakeDatasetScene(const std::string& dir) { return std::make_shared<DatasetScene>(dir); }
+std::shared_ptr<FakeScene> MakeDatasetScene(const std::string& dir) {
+  return std::make_shared<DatasetScene>(ReadPairsCsv(std::filesystem::path(dir) / "pairs.csv"));
+}
+
+std::shared_ptr<FakeScene> MakeImagePairsScene(std::vector<PairEntry> pairs) {
+  FLATSCAN_CHECK(!pairs.empty());
+  return std::make_shared<DatasetScene>(std::move(pairs));
+}
 
 std::unique_ptr<CameraPairSource> MakeFakeSource(const std::string& name, std::shared_ptr<FakeScene> scene,
                                                  CameraSourceOptions options) {

@@ -33,6 +33,7 @@
 #include <string>
 
 #include "flatscan/acquisition/aravis_camera.h"
+#include "flatscan/io/pairs_csv.h"
 #include "flatscan/station/pair_source.h"
 
 namespace flatscan {
@@ -118,7 +119,7 @@ class CameraPairSource : public PairSource {
 };
 
 // The source for `cameras:LEFT,RIGHT` (ids or serials, found on `interfaces`). Throws
-// InputError naming the spec or the camera.
+// InputError naming the camera, or the spec (field "source") when it is not of that form.
 std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, CameraSourceOptions options,
                                                    const CameraInterfaces& interfaces = {});
 
@@ -130,5 +131,8 @@ std::unique_ptr<CameraPairSource> MakeFakeSource(const std::string& name, std::s
 // their ids, frames the size of its first image. Throws InputError as ReadPairsCsv does,
 // or naming an image that is not an 8-bit grey PNG.
 std::shared_ptr<FakeScene> MakeDatasetScene(const std::string& dir);
+// The same for a list of pairs (not empty), e.g. chessboard images for
+// `capture-calibration --cameras aravis-fake:DIR`.
+std::shared_ptr<FakeScene> MakeImagePairsScene(std::vector<PairEntry> pairs);
 
 }  // namespace flatscan

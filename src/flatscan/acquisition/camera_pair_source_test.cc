@@ -257,9 +257,9 @@ TEST(CameraPairSource, FramesLostInARowMakeTheStationNotReadyUntilOneComesThroug
 TEST(CameraPairSource, NamesACameraSpecItCannotUse) {
   const CameraInterfaces fake = CameraInterfaces::FakeOnly();  // nothing sent on a network
   EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:A", {}, fake); }),
-            "--source 'cameras:A': expected cameras:LEFT,RIGHT (each camera's id or serial, from `flatscan cameras`)");
+            "source: 'cameras:A': expected cameras:LEFT,RIGHT (each camera's id or serial, from `flatscan cameras`)");
   EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:A,A", {}, fake); }),
-            "--source 'cameras:A,A': the left and the right camera are the same camera");
+            "source: 'cameras:A,A': the left and the right camera are the same camera");
   EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:NO-SUCH-1,Fake_1", {}, fake); }),
             "camera 'NO-SUCH-1': not found among the 1 GenICam camera(s) found (`flatscan cameras` lists them by id "
             "and serial)");

@@ -42,6 +42,7 @@ std::unique_ptr<Command> MakeInspectCommand();
 std::unique_ptr<Command> MakeEdgesCommand();
 std::unique_ptr<Command> MakeEvaluateCommand();
 std::unique_ptr<Command> MakeEvaluateEdgesCommand();
+std::unique_ptr<Command> MakeCaptureCalibrationCommand();
 std::unique_ptr<Command> MakeCalibrateRigCommand();
 std::unique_ptr<Command> MakeImportRigCommand();
 std::unique_ptr<Command> MakeCalibratePlaneCommand();
@@ -58,6 +59,7 @@ inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   out.push_back(MakeEdgesCommand());
   out.push_back(MakeEvaluateCommand());
   out.push_back(MakeEvaluateEdgesCommand());
+  out.push_back(MakeCaptureCalibrationCommand());
   out.push_back(MakeCalibrateRigCommand());
   out.push_back(MakeImportRigCommand());
   out.push_back(MakeCalibratePlaneCommand());

@@ -70,11 +70,12 @@ class StationCommand : public Command {
                  "Replay:  flatscan station --recipe shield.yml --source pairs:pairs.csv --store results.db "
                  "--until-idle 5\nThen:    flatscan results --store results.db --csv\nSee docs/station.md.");
     sub_->add_option("--recipe", recipes_, "recipe file (YAML; repeat for several: the first is active)")->required();
-    sub_->add_option("--source", source_,
+    Fills(sub_->add_option("--source", source_,
                      "where pairs come from: folder:DIR (ID_left.png + ID_right.png appearing in DIR, watched), "
                      "pairs:FILE.csv (replay a pairs file), cameras:LEFT,RIGHT (two GenICam cameras by id or serial, "
                      "docs/cameras.md) or aravis-fake:DIR (Aravis's fake cameras showing a simulated dataset's pairs)")
-        ->required();
+              ->required(),
+          "source");
     sub_->add_option("--half-pair-timeout", half_pair_timeout_s_,
                      "folder: seconds after which one image without its partner gets a not-measured record")
         ->default_val(half_pair_timeout_s_)
