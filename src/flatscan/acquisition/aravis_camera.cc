@@ -4,6 +4,7 @@
 #include <arv.h>
 
 #include <algorithm>
+#include <atomic>
 #include <map>
 #include <mutex>
 #include <set>
@@ -98,7 +99,10 @@ std::string BufferProblem(ArvBufferStatus status) {
 struct StreamState {
   ArvStream* stream = nullptr;
   bool per_trigger = false;
-  FakeContext* fake_context = nullptr;  // the camera's, which outlives its streams' use
+  // The camera's fill context, shared: a frame still held after its camera was closed
+  // (a camera lost and reopened) comes back here, and the stream's thread may fill with
+  // it until the stream is gone (members go after the destructor's body).
+  std::shared_ptr<FakeContext> fake_context;
   std::mutex mutex;
   std::vector<ArvBuffer*> spare;
   std::set<ArvBuffer*> undersized;  // made by FakeTriggerFault::incomplete, freed on return
@@ -200,19 +204,28 @@ void AddGreyStatistics(const uint8_t* pixels, size_t count, GrabStatistics& stat
 
 class AravisCamera::Impl {
  public:
-  Impl(ArvCamera* camera, std::string name) : camera_(camera), name_(std::move(name)) {}
+  Impl(ArvCamera* camera, std::string name) : camera_(camera), name_(std::move(name)) {
+    // Aravis emits control-lost from its own thread when the camera stops answering (a
+    // GigE camera's heartbeat, a USB3 camera unplugged).
+    control_lost_handler_ =
+        g_signal_connect(arv_camera_get_device(camera_), "control-lost", G_CALLBACK(&Impl::OnControlLost), this);
+  }
   ~Impl() {
+    g_signal_handler_disconnect(arv_camera_get_device(camera_), control_lost_handler_);
     StopAcquisition();
     stream_.reset();
     if (camera_) g_object_unref(camera_);
   }
+  static void OnControlLost(ArvDevice*, gpointer self) { static_cast<Impl*>(self)->control_lost_ = true; }
   void StopAcquisition() {
     if (!stream_) return;
     arv_camera_stop_acquisition(camera_, nullptr);
   }
   ArvCamera* camera_;
   std::string name_;
-  std::unique_ptr<FakeContext> fake_;  // the fake camera's, alive as long as the camera
+  std::shared_ptr<FakeContext> fake_;  // the fake camera's fill; its streams share it
+  gulong control_lost_handler_ = 0;
+  std::atomic<bool> control_lost_{false};
   guint32 fake_period_us_ = kFakeFramePeriodUs;
   std::shared_ptr<StreamState> stream_;
 };
@@ -265,7 +278,7 @@ std::unique_ptr<AravisCamera> AravisCamera::OpenFake(const std::string& serial, 
   arv_fake_camera_write_register(fake, ARV_FAKE_CAMERA_REGISTER_SENSOR_HEIGHT, guint32(std::max(height, 2048)));
   arv_camera_set_region(camera, 0, 0, width, height, &error);
   Check(error, fmt::format("fake camera '{}': {} x {}", serial, width, height));
-  impl->fake_ = std::make_unique<FakeContext>();
+  impl->fake_ = std::make_shared<FakeContext>();
   impl->fake_->fill = std::move(fill);
   arv_fake_camera_set_fill_pattern(fake, FillFake, impl->fake_.get());
   return std::unique_ptr<AravisCamera>(new AravisCamera(std::move(impl)));
@@ -339,7 +352,7 @@ void AravisCamera::Start(const AcquisitionSettings& settings) {
   Check(error, fmt::format("camera {}: cannot set continuous acquisition", name));
   SetExposureAndGain(settings.exposure_us, settings.gain_db);
   auto state = std::make_shared<StreamState>();
-  state->fake_context = impl_->fake_.get();
+  state->fake_context = impl_->fake_;
   if (IsFake()) {
     // It ignores triggers. Software: a short frame period, and one buffer per trigger.
     // Line0: free running at the line's rate, every buffer queued (two fakes tick
@@ -408,8 +421,13 @@ void AravisCamera::Stop() {
   impl_->stream_.reset();  // the frames still held keep the stream until released
 }
 
+bool AravisCamera::ControlLost() const { return impl_->control_lost_; }
+
 void AravisCamera::Trigger(uint64_t tag, const FakeTriggerFault& fault) {
   FLATSCAN_CHECK(impl_->stream_);
+  if (fault.lose && IsFake())  // as Aravis does for a camera that stops answering
+    g_signal_emit_by_name(arv_camera_get_device(impl_->camera_), "control-lost");
+  if (ControlLost()) ThrowInputError("camera {}: lost (it stopped answering on its control channel)", impl_->name_);
   StreamState& state = *impl_->stream_;
   if (!state.per_trigger) {
     if (IsFake()) return;  // a fake on its "line": it triggers itself

@@ -99,6 +99,9 @@ struct FakeTriggerFault {
   bool drop = false;               // no frame for this trigger (a lost frame)
   std::chrono::milliseconds delay{0};  // the frame is exposed this much later (Trigger blocks as long)
   bool incomplete = false;         // the buffer is too small: Aravis reports it incomplete
+  // The camera disappears at this trigger: Aravis's control-lost signal, as for a camera
+  // unplugged or off the network; it takes no trigger from then on (the source reopens it).
+  bool lose = false;
 };
 
 class AravisCamera {
@@ -134,11 +137,14 @@ class AravisCamera {
   double ExposureUs() const;  // as the camera reports them
   double GainDb() const;
   // A software trigger now (any thread); `tag` reaches a fake camera's fill. Throws
-  // InputError when the camera refuses it (disconnected).
+  // InputError when the camera refuses it, or is lost (ControlLost).
   void Trigger(uint64_t tag = 0, const FakeTriggerFault& fault = {});
   // The next frame, waiting at most `wait`; nullopt when none came.
   std::optional<CameraFrame> NextFrame(std::chrono::microseconds wait);
   bool IsFake() const;
+  // The camera stopped answering (Aravis's control-lost signal: a GigE camera's heartbeat
+  // unanswered, a USB3 camera unplugged). It stays lost: the camera must be opened again.
+  bool ControlLost() const;
   // A fake camera started with kLine0 holds its buffers until this queues them all (the
   // source queues both fakes' between two ticks, so that their n-th frames match).
   void QueueFakeLine();

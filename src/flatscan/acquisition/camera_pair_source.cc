@@ -97,35 +97,50 @@ std::string SideName(bool left) { return left ? "left" : "right"; }
 
 CameraPairSource::CameraPairSource(std::string name, std::unique_ptr<AravisCamera> left,
                                    std::unique_ptr<AravisCamera> right, CameraSourceOptions options,
-                                   std::shared_ptr<FakeScene> scene)
-    : name_(std::move(name)),
-      left_(std::move(left)),
-      right_(std::move(right)),
-      options_(options),
-      scene_(std::move(scene)) {
-  left_->Start(options_.acquisition);
-  right_->Start(options_.acquisition);
-  if (left_->IsFake() && right_->IsFake() && options_.acquisition.trigger == TriggerSource::kLine0) {
+                                   std::shared_ptr<FakeScene> scene, CameraOpener reopen_left,
+                                   CameraOpener reopen_right)
+    : name_(std::move(name)), options_(options), acquisition_(options.acquisition), scene_(std::move(scene)) {
+  left_.camera = std::move(left);
+  left_.reopen = std::move(reopen_left);
+  right_.left = false;
+  right_.camera = std::move(right);
+  right_.reopen = std::move(reopen_right);
+  left_.camera->Start(acquisition_);
+  right_.camera->Start(acquisition_);
+  if (left_.camera->IsFake() && right_.camera->IsFake() && acquisition_.trigger == TriggerSource::kLine0) {
     if (scene_)
       for (int64_t k = 1; k <= kFakeLineLookahead; ++k) scene_->Prepare(k);
-    left_->AwayFromFakeTick(kFakeTickMargin);  // both fakes' first frame at the same tick
-    left_->QueueFakeLine();
-    right_->QueueFakeLine();
+    left_.camera->AwayFromFakeTick(kFakeTickMargin);  // both fakes' first frame at the same tick
+    left_.camera->QueueFakeLine();
+    right_.camera->QueueFakeLine();
   }
-  spdlog::info("{}: left {}, right {}; {} trigger", name_, left_->Name(), right_->Name(),
-               options_.acquisition.trigger == TriggerSource::kLine0 ? "line0" : "software");
+  spdlog::info("{}: left {}, right {}; {} trigger", name_, left_.camera->Name(), right_.camera->Name(),
+               acquisition_.trigger == TriggerSource::kLine0 ? "line0" : "software");
 }
 
 CameraPairSource::~CameraPairSource() {
-  left_->Stop();
-  right_->Stop();
+  for (Side* side : {&left_, &right_})
+    if (side->camera) side->camera->Stop();
+}
+
+std::shared_ptr<AravisCamera> CameraPairSource::Camera(bool left) const {
+  std::lock_guard lock(trigger_mutex_);
+  return left ? left_.camera : right_.camera;
+}
+
+int CameraPairSource::Reconnections() const {
+  std::lock_guard lock(trigger_mutex_);
+  return reconnections_;
 }
 
 void CameraPairSource::UseRecipe(const Recipe& recipe) {
+  std::lock_guard one_at_a_time(trigger_mutex_);
   settings_problem_.clear();
+  acquisition_.exposure_us = recipe.camera.exposure_us ? recipe.camera.exposure_us : options_.acquisition.exposure_us;
+  acquisition_.gain_db = recipe.camera.gain_db ? recipe.camera.gain_db : options_.acquisition.gain_db;
   try {
-    for (AravisCamera* camera : {left_.get(), right_.get()})
-      camera->SetExposureAndGain(recipe.camera.exposure_us, recipe.camera.gain_db);
+    for (Side* side : {&left_, &right_})
+      if (side->camera) side->camera->SetExposureAndGain(recipe.camera.exposure_us, recipe.camera.gain_db);
   } catch (const InputError& e) {
     settings_problem_ = fmt::format("recipe {}: {}", recipe.name, e.what());
     spdlog::error("{}: {}: its pairs are not measured", name_, settings_problem_);
@@ -135,6 +150,60 @@ void CameraPairSource::UseRecipe(const Recipe& recipe) {
 int64_t CameraPairSource::Triggers() const {
   std::lock_guard lock(mutex_);
   return fired_;
+}
+
+std::chrono::milliseconds ReconnectDelay(int failed_attempts, milliseconds first, milliseconds max) {
+  milliseconds delay = first;
+  for (int i = 0; i < failed_attempts && delay < max; ++i) delay *= 2;
+  return std::min(delay, max);
+}
+
+void CameraPairSource::Lose(Side& side, int64_t trigger, const std::string& reason) {
+  spdlog::error("{}: the {} camera is lost at trigger {}: {}; reconnecting", name_, SideName(side.left), trigger,
+                reason);
+  side.camera->Stop();  // its frames still held stay valid
+  side.camera.reset();
+  side.lost_reason = reason;
+  side.lost_at_trigger = trigger;
+  side.failed_attempts = 0;
+  side.last_failure.clear();
+  side.next_attempt_ns = HostClockNs() + int64_t(options_.reconnect_first.count()) * 1'000'000;
+}
+
+bool CameraPairSource::EnsureCamera(Side& side, int64_t next_trigger) {
+  if (side.camera && side.camera->ControlLost())
+    Lose(side, next_trigger, fmt::format("camera {}: lost (it stopped answering on its control channel)",
+                                         side.camera->Name()));
+  if (side.camera) return true;
+  if (!side.reopen || HostClockNs() < side.next_attempt_ns) return false;
+  try {
+    std::unique_ptr<AravisCamera> camera = side.reopen(next_trigger);
+    camera->Start(acquisition_);
+    if (camera->IsFake() && acquisition_.trigger == TriggerSource::kLine0) camera->QueueFakeLine();
+    side.camera = std::move(camera);
+    ++reconnections_;
+    spdlog::info("{}: the {} camera is back ({}) after {} failed attempt(s)", name_, SideName(side.left),
+                 side.camera->Name(), side.failed_attempts);
+    return true;
+  } catch (const InputError& e) {
+    side.last_failure = e.what();
+    ++side.failed_attempts;
+    side.next_attempt_ns = HostClockNs() + int64_t(ReconnectDelay(side.failed_attempts, options_.reconnect_first,
+                                                                  options_.reconnect_max).count()) * 1'000'000;
+    spdlog::warn("{}: the {} camera: reconnection attempt {} failed: {}", name_, SideName(side.left),
+                 side.failed_attempts, e.what());
+    return false;
+  }
+}
+
+std::string CameraPairSource::LostText(const Side& side) const {
+  std::string text = fmt::format("the {} camera is lost since trigger {} ({})", SideName(side.left),
+                                 side.lost_at_trigger, side.lost_reason);
+  if (!side.reopen) return text + "; it is not reopened";
+  const double next_s = double(std::max<int64_t>(0, side.next_attempt_ns - HostClockNs())) / 1e9;
+  if (side.failed_attempts == 0) return text + fmt::format("; reconnecting in {:.1f} s", next_s);
+  return text + fmt::format("; reconnection attempt {} failed ({}); next in {:.1f} s", side.failed_attempts,
+                            side.last_failure, next_s);
 }
 
 void CameraPairSource::Trigger() {
@@ -147,15 +216,24 @@ void CameraPairSource::Trigger() {
     trigger = fired_ + 1;
   }
   if (scene_) scene_->Prepare(trigger);
-  Fired fired{trigger, HostClockNs(), "", ""};
+  Fired fired;
+  fired.trigger = trigger;
+  // Both cameras, or neither: a frame of one camera alone would only be discarded.
+  const bool left_ready = EnsureCamera(left_, trigger), right_ready = EnsureCamera(right_, trigger);
+  fired.fired_ns = HostClockNs();
   fired.id = IdFor(trigger, fired.fired_ns);
-  for (const bool left : {true, false}) {
+  if (!left_ready || !right_ready) fired.problem = LostText(left_ready ? right_ : left_);
+  for (Side* side : {&left_, &right_}) {
+    if (!fired.problem.empty()) break;
     try {
-      (left ? *left_ : *right_).Trigger(uint64_t(trigger), scene_ ? scene_->Fault(trigger, left) : FakeTriggerFault{});
+      side->camera->Trigger(uint64_t(trigger), scene_ ? scene_->Fault(trigger, side->left) : FakeTriggerFault{});
     } catch (const InputError& e) {
       fired.problem = e.what();
+      Lose(*side, trigger, e.what());
     }
   }
+  fired.left = left_.camera;
+  fired.right = right_.camera;
   {
     std::lock_guard lock(mutex_);
     fired_ = trigger;
@@ -206,8 +284,8 @@ std::optional<SourcePair> CameraPairSource::NextTriggered(milliseconds wait) {
     pair.source_fault = true;
     return pair;
   }
-  const std::optional<CameraFrame> left = FrameFor(*left_, fired);
-  const std::optional<CameraFrame> right = FrameFor(*right_, fired);
+  const std::optional<CameraFrame> left = FrameFor(*fired.left, fired);
+  const std::optional<CameraFrame> right = FrameFor(*fired.right, fired);
   return Pair(fired.id, left, right, fired.trigger);
 }
 
@@ -266,15 +344,28 @@ std::optional<SourcePair> CameraPairSource::NextOnLine(milliseconds wait) {
     std::this_thread::sleep_for(wait);
     return std::nullopt;
   }
+  std::shared_ptr<AravisCamera> left_camera, right_camera;
+  {
+    std::lock_guard one_at_a_time(trigger_mutex_);
+    const int64_t next = taken_ + 1;
+    const bool left_ready = EnsureCamera(left_, next), right_ready = EnsureCamera(right_, next);
+    if (!left_ready && !right_ready) {
+      std::this_thread::sleep_for(wait);
+      return std::nullopt;
+    }
+    if (!left_ready || !right_ready) return LoneFrameOnLine(left_ready ? right_ : left_, left_ready ? left_ : right_, wait);
+    left_camera = left_.camera;
+    right_camera = right_.camera;
+  }
   const auto take = [](AravisCamera& camera, std::optional<CameraFrame>& held, microseconds w) {
     std::optional<CameraFrame> f = std::move(held);
     held.reset();
     return f ? f : camera.NextFrame(w);
   };
-  std::optional<CameraFrame> left = take(*left_, held_left_, wait);
-  std::optional<CameraFrame> right = take(*right_, held_right_, left ? options_.frame_timeout : microseconds(0));
+  std::optional<CameraFrame> left = take(*left_camera, held_left_, wait);
+  std::optional<CameraFrame> right = take(*right_camera, held_right_, left ? options_.frame_timeout : microseconds(0));
   if (!left && !right) return std::nullopt;
-  if (!left) left = take(*left_, held_left_, options_.frame_timeout);
+  if (!left) left = take(*left_camera, held_left_, options_.frame_timeout);
   const int64_t trigger = taken_ + 1;
   if (scene_) scene_->Prepare(trigger + kFakeLineLookahead);
   const int64_t ns = left ? left->timestamp_ns : right->timestamp_ns;
@@ -291,6 +382,21 @@ std::optional<SourcePair> CameraPairSource::NextOnLine(milliseconds wait) {
   return Pair(IdFor(trigger, ns), left, right, trigger);
 }
 
+// line0 with one camera lost: each frame of the other is a pulse, recorded as not
+// measured (one record per part still); called under trigger_mutex_.
+std::optional<SourcePair> CameraPairSource::LoneFrameOnLine(Side& lost, Side& present, milliseconds wait) {
+  std::optional<CameraFrame>& held = present.left ? held_left_ : held_right_;
+  std::optional<CameraFrame> frame = std::move(held);
+  held.reset();
+  if (!frame) frame = present.camera->NextFrame(wait);
+  if (!frame) return std::nullopt;
+  const int64_t trigger = taken_ + 1;
+  if (scene_) scene_->Prepare(trigger + kFakeLineLookahead);
+  SourcePair pair = Pair(IdFor(trigger, frame->timestamp_ns), std::nullopt, std::nullopt, trigger);
+  pair.not_measurable = LostText(lost);
+  return pair;
+}
+
 std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, CameraSourceOptions options,
                                                    const CameraInterfaces& interfaces) {
   const std::string prefix = "cameras:";
@@ -302,7 +408,11 @@ std::unique_ptr<CameraPairSource> MakeCameraSource(const std::string& spec, Came
   if (left == right) ThrowFieldError("source", "'{}': the left and the right camera are the same camera", spec);
   std::unique_ptr<AravisCamera> left_camera = AravisCamera::Open(left, interfaces);  // left first: its name in errors
   std::unique_ptr<AravisCamera> right_camera = AravisCamera::Open(right, interfaces);
-  return std::make_unique<CameraPairSource>(spec, std::move(left_camera), std::move(right_camera), options);
+  const auto opener = [interfaces](const std::string& camera) {
+    return [interfaces, camera](int64_t) { return AravisCamera::Open(camera, interfaces); };
+  };
+  return std::make_unique<CameraPairSource>(spec, std::move(left_camera), std::move(right_camera), options, nullptr,
+                                            opener(left), opener(right));
 }
 
 std::shared_ptr<FakeScene> MakeDatasetScene(const std::string& dir) {
@@ -317,14 +427,21 @@ std::shared_ptr<FakeScene> MakeImagePairsScene(std::vector<PairEntry> pairs) {
 std::unique_ptr<CameraPairSource> MakeFakeSource(const std::string& name, std::shared_ptr<FakeScene> scene,
                                                  CameraSourceOptions options) {
   const cv::Size size = scene->FrameSize();
-  const auto fill = [scene](bool left) {
-    return [scene, left](int width, int height, uint8_t* pixels, uint64_t tag) {
-      scene->Fill(int64_t(tag), left, width, height, pixels);
+  // A fake camera "re-added": a new one with the same serial, once the scene says it is back.
+  const auto open = [scene, size](bool left) {
+    return AravisCamera::OpenFake(left ? "FAKE-LEFT" : "FAKE-RIGHT", size.width, size.height,
+                                  [scene, left](int width, int height, uint8_t* pixels, uint64_t tag) {
+                                    scene->Fill(int64_t(tag), left, width, height, pixels);
+                                  });
+  };
+  const auto reopen = [scene, open](bool left) -> CameraOpener {
+    return [scene, open, left](int64_t next_trigger) {
+      if (!scene->Present(next_trigger, left))
+        ThrowInputError("camera 'FAKE-{}': not found among the GenICam cameras found", left ? "LEFT" : "RIGHT");
+      return open(left);
     };
   };
-  return std::make_unique<CameraPairSource>(
-      name, AravisCamera::OpenFake("FAKE-LEFT", size.width, size.height, fill(true)),
-      AravisCamera::OpenFake("FAKE-RIGHT", size.width, size.height, fill(false)), options, scene);
+  return std::make_unique<CameraPairSource>(name, open(true), open(false), options, scene, reopen(true), reopen(false));
 }
 
 }  // namespace flatscan

@@ -17,6 +17,10 @@
 // timeout is discarded when the next trigger looks for frames (it is older than that
 // trigger), so it can never be paired with the wrong part.
 //
+// A camera that disappears (Aravis's control-lost, or a trigger it refuses) is closed and
+// opened again with a growing wait between attempts (ReconnectDelay); every trigger
+// meanwhile is a "not measured" pair saying since when it is gone.
+//
 // Triggers: `software` fires both cameras from Trigger() (a rate, the PLC's register 12)
 // or, with trigger_on_demand, whenever the station asks for a pair and none is waiting;
 // `line0` leaves triggering to the wiring (both cameras on one input line) and pairs the
@@ -27,6 +31,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -48,7 +53,24 @@ struct CameraSourceOptions {
   // differs); a missed trigger shifts the pairing by a whole part period (100 ms or more
   // on a line): 20 ms tells the two apart.
   std::chrono::milliseconds max_skew{20};
+  // A camera lost (ControlLost, or a trigger it refused) is opened again after
+  // reconnect_first, then after twice the last wait each time it fails, at most
+  // reconnect_max: a camera back after a power cycle (a few seconds) is found within a
+  // second or two of it, and one gone for good costs a discovery (about 1 s on GigE) every
+  // 30 s, not at every trigger.
+  std::chrono::milliseconds reconnect_first{500};
+  std::chrono::milliseconds reconnect_max{30000};
 };
+
+// The wait before the attempt after `failed_attempts` failed ones (0: the first attempt):
+// first * 2^failed_attempts, at most `max`.
+std::chrono::milliseconds ReconnectDelay(int failed_attempts, std::chrono::milliseconds first,
+                                         std::chrono::milliseconds max);
+
+// Opens one of the source's cameras again after it was lost (by id or serial, as at the
+// start). `next_trigger` is the trigger about to fire: a fake scene decides by it
+// whether its camera is back. Throws InputError when the camera cannot be opened.
+using CameraOpener = std::function<std::unique_ptr<AravisCamera>(int64_t next_trigger)>;
 
 // What two fake cameras show at each trigger (aravis-fake:DIR, tests). Triggers are
 // numbered from 1.
@@ -67,13 +89,18 @@ class FakeScene {
   virtual void Fill(int64_t trigger, bool left, int width, int height, uint8_t* pixels) = 0;
   // A fault to inject at this trigger (tests).
   virtual FakeTriggerFault Fault(int64_t /*trigger*/, bool /*left*/) const { return {}; }
+  // Whether a lost camera can be opened again before this trigger (tests: a camera
+  // removed and re-added).
+  virtual bool Present(int64_t /*trigger*/, bool /*left*/) const { return true; }
 };
 
 class CameraPairSource : public PairSource {
  public:
   // Starts acquisition on both cameras; throws InputError naming a camera that refuses.
+  // A lost camera is opened again with its opener (none: it stays lost).
   CameraPairSource(std::string name, std::unique_ptr<AravisCamera> left, std::unique_ptr<AravisCamera> right,
-                   CameraSourceOptions options, std::shared_ptr<FakeScene> scene = nullptr);
+                   CameraSourceOptions options, std::shared_ptr<FakeScene> scene = nullptr,
+                   CameraOpener reopen_left = nullptr, CameraOpener reopen_right = nullptr);
   ~CameraPairSource() override;
 
   // Software trigger: both cameras now (any thread). Ignored with line0, and past the
@@ -87,29 +114,52 @@ class CameraPairSource : public PairSource {
   // Sets both cameras' exposure and gain to the recipe's. A camera that refuses makes
   // every pair "not measured" (with the camera's reason) until a recipe it takes.
   void UseRecipe(const Recipe& recipe) override;
-  AravisCamera& Camera(bool left) { return left ? *left_ : *right_; }
+  // The camera open now on that side (null while it is lost); any thread.
+  std::shared_ptr<AravisCamera> Camera(bool left) const;
+  // Times a lost camera was opened again.
+  int Reconnections() const;
 
  private:
+  // One side's camera, and while it is lost, when to try again.
+  struct Side {
+    bool left = true;
+    std::shared_ptr<AravisCamera> camera;  // null while lost
+    CameraOpener reopen;
+    std::string lost_reason;    // why it was lost
+    int64_t lost_at_trigger = 0;
+    int failed_attempts = 0;    // since it was lost
+    std::string last_failure;   // the last failed attempt's error
+    int64_t next_attempt_ns = 0;
+  };
   struct Fired {
-    int64_t trigger;
-    int64_t fired_ns;         // host clock, UTC
+    int64_t trigger = 0;
+    int64_t fired_ns = 0;     // host clock, UTC
     std::string id;
-    std::string problem;      // a camera refused the trigger
+    std::string problem;      // a camera lost or refusing the trigger
+    std::shared_ptr<AravisCamera> left, right;  // the cameras triggered (their frames come from them)
   };
   std::optional<SourcePair> NextTriggered(std::chrono::milliseconds wait);
   std::optional<SourcePair> NextOnLine(std::chrono::milliseconds wait);
+  std::optional<SourcePair> LoneFrameOnLine(Side& lost, Side& present, std::chrono::milliseconds wait);
   std::optional<CameraFrame> FrameFor(AravisCamera& camera, const Fired& fired);
+  // Under trigger_mutex_: a camera found lost is closed; a lost one reopened when due.
+  // Whether the side has a camera now.
+  bool EnsureCamera(Side& side, int64_t next_trigger);
+  void Lose(Side& side, int64_t trigger, const std::string& reason);
+  std::string LostText(const Side& side) const;
   SourcePair Pair(const std::string& id, const std::optional<CameraFrame>& left,
                   const std::optional<CameraFrame>& right, int64_t trigger);
   std::string IdFor(int64_t trigger, int64_t ns) const;
 
   std::string name_;
-  std::unique_ptr<AravisCamera> left_, right_;
+  Side left_, right_;  // written under trigger_mutex_
   CameraSourceOptions options_;
+  AcquisitionSettings acquisition_;  // options_.acquisition with the recipe's exposure and gain (trigger_mutex_)
+  int reconnections_ = 0;            // trigger_mutex_
   std::shared_ptr<FakeScene> scene_;
   mutable std::mutex mutex_;
   std::condition_variable fired_cv_;
-  std::mutex trigger_mutex_;  // one trigger at a time: both cameras, in order
+  mutable std::mutex trigger_mutex_;  // one trigger at a time: both cameras, in order; the sides
   std::deque<Fired> pending_;
   int64_t fired_ = 0;
   std::atomic<int64_t> taken_{0};  // pairs handed out (written by Next's thread only)

@@ -60,11 +60,26 @@ class FaultyScene : public FakeScene {
     const auto it = faults_.find({trigger, left});
     return it == faults_.end() ? FakeTriggerFault{} : it->second;
   }
+  // The left camera is unplugged for the triggers [first, last]: it cannot be opened.
+  void RemoveLeftCamera(int64_t first, int64_t last) { removed_ = {first, last}; }
+  bool Present(int64_t trigger, bool left) const override {
+    ++reopen_tries;
+    return !left || trigger < removed_.first || trigger > removed_.second;
+  }
+  mutable int reopen_tries = 0;
 
  private:
   std::shared_ptr<FakeScene> scene_;
   std::map<std::pair<int64_t, bool>, FakeTriggerFault> faults_;
+  std::pair<int64_t, int64_t> removed_{0, -1};
 };
+
+// The left fake camera lost at `trigger` (Aravis's control-lost signal).
+std::map<std::pair<int64_t, bool>, FakeTriggerFault> LoseLeftCameraAt(int64_t trigger) {
+  FakeTriggerFault lose;
+  lose.lose = true;
+  return {{{trigger, true}, lose}};
+}
 
 TEST(CameraPairSource, FakeCamerasShowTheDatasetPairByPairWithoutACopy) {
   testing::ScratchDir dir("fake_source");
@@ -146,6 +161,78 @@ TEST(CameraPairSource, FaultsGiveNotMeasuredPairsAndTheNextTriggerIsRight) {
   }
 }
 
+TEST(CameraPairSource, ReconnectionWaitsLongerAfterEachFailedAttempt) {
+  const milliseconds first(500), most(30000);
+  std::vector<long> delays;
+  for (int failed = 0; failed <= 8; ++failed) delays.push_back(long(ReconnectDelay(failed, first, most).count()));
+  EXPECT_EQ(delays, (std::vector<long>{500, 1000, 2000, 4000, 8000, 16000, 30000, 30000, 30000}));
+  EXPECT_EQ(ReconnectDelay(1000000, first, most).count(), 30000);  // no overflow
+}
+
+// A camera unplugged at trigger 3 and plugged in again before trigger 6: a record per
+// trigger, the reason for each, the camera opened again and its frames right.
+TEST(CameraPairSource, ACameraRemovedAndAddedAgainIsReconnected) {
+  testing::ScratchDir dir("fake_reconnect");
+  const auto images = WriteNoiseDataset(dir.path(), 7);
+  auto scene = std::make_shared<FaultyScene>(MakeDatasetScene(dir.path().string()), LoseLeftCameraAt(3));
+  scene->RemoveLeftCamera(3, 5);
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.reconnect_first = milliseconds(0);  // an attempt at every trigger: the test does not wait
+  const auto source = MakeFakeSource("aravis-fake:test", scene, options);
+  const std::shared_ptr<AravisCamera> first_left = source->Camera(true);
+  std::vector<SourcePair> pairs;
+  while (!source->Exhausted())
+    if (auto pair = source->Next(milliseconds(2000))) pairs.push_back(std::move(*pair));
+  ASSERT_EQ(pairs.size(), 7u);
+  const auto reason = [&](size_t k) { return pairs[k - 1].not_measurable.value_or(""); };
+  const std::string lost = "the left camera is lost since trigger 3 (camera Aravis Fake (FAKE-LEFT): lost (it stopped "
+                           "answering on its control channel))";
+  EXPECT_EQ(reason(3), "trigger 3: camera Aravis Fake (FAKE-LEFT): lost (it stopped answering on its control channel)");
+  EXPECT_EQ(reason(4).rfind("trigger 4: " + lost + "; reconnection attempt 1 failed (camera 'FAKE-LEFT': not found "
+                            "among the GenICam cameras found); next in 0.",
+                            0),
+            0u)
+      << reason(4);
+  EXPECT_EQ(reason(5).rfind("trigger 5: " + lost + "; reconnection attempt 2 failed", 0), 0u) << reason(5);
+  for (const size_t k : {3, 4, 5}) EXPECT_TRUE(pairs[k - 1].source_fault) << k;
+  for (const size_t k : {1, 2, 6, 7}) {
+    EXPECT_EQ(reason(k), "") << k;
+    EXPECT_TRUE(Same(pairs[k - 1].left_image, images[k - 1].first)) << k;
+    EXPECT_TRUE(Same(pairs[k - 1].right_image, images[k - 1].second)) << k;
+  }
+  EXPECT_EQ(source->Reconnections(), 1);
+  EXPECT_NE(source->Camera(true), first_left);  // a new camera object: the lost one was closed
+  EXPECT_TRUE(Same(pairs[0].left_image, images[0].first));  // a frame of the closed camera is still valid
+}
+
+// A lost camera is not opened at every trigger: the first attempt waits reconnect_first.
+TEST(CameraPairSource, ALostCameraIsRetriedOnlyWhenItsWaitIsOver) {
+  testing::ScratchDir dir("fake_backoff");
+  WriteNoiseDataset(dir.path(), 5);
+  auto scene = std::make_shared<FaultyScene>(MakeDatasetScene(dir.path().string()), LoseLeftCameraAt(2));
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.reconnect_first = milliseconds(3'600'000);
+  const auto source = MakeFakeSource("aravis-fake:test", scene, options);
+  std::vector<SourcePair> pairs;
+  while (!source->Exhausted())
+    if (auto pair = source->Next(milliseconds(2000))) pairs.push_back(std::move(*pair));
+  ASSERT_EQ(pairs.size(), 5u);
+  EXPECT_FALSE(pairs[0].not_measurable);
+  for (size_t k = 3; k <= 5; ++k)
+    EXPECT_EQ(pairs[k - 1].not_measurable.value_or("").rfind(
+                  fmt::format("trigger {}: the left camera is lost since trigger 2 (camera Aravis Fake (FAKE-LEFT): "
+                              "lost (it stopped answering on its control channel)); reconnecting in 3",
+                              k),
+                  0),
+              0u)
+        << *pairs[k - 1].not_measurable;
+  EXPECT_EQ(scene->reopen_tries, 0);
+  EXPECT_EQ(source->Reconnections(), 0);
+  EXPECT_FALSE(source->Camera(true));
+}
+
 // line0: a fake line pulsing at 20 Hz, both fake cameras on it; the frames paired by
 // their timestamps, in the dataset's order.
 TEST(CameraPairSource, OnALineTheFramesArePairedByTheirTimestamps) {
@@ -175,15 +262,15 @@ TEST(CameraPairSource, TheRecipeSetsExposureAndGain) {
   options.trigger_on_demand = true;
   options.acquisition.exposure_us = 500;
   const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options);
-  EXPECT_EQ(source->Camera(true).ExposureUs(), 500);  // from the start
+  EXPECT_EQ(source->Camera(true)->ExposureUs(), 500);  // from the start
   Recipe recipe;
   recipe.name = "bright";
   recipe.camera.exposure_us = 800;
   recipe.camera.gain_db = 6;
   source->UseRecipe(recipe);
   for (const bool left : {true, false}) {
-    EXPECT_EQ(source->Camera(left).ExposureUs(), 800);
-    EXPECT_EQ(source->Camera(left).GainDb(), 6);
+    EXPECT_EQ(source->Camera(left)->ExposureUs(), 800);
+    EXPECT_EQ(source->Camera(left)->GainDb(), 6);
   }
   EXPECT_FALSE(source->Next(milliseconds(2000))->not_measurable);
   recipe.name = "too-much";
@@ -211,22 +298,29 @@ class EventLog : public RecordPublisher {
   std::string not_ready_reason;
 };
 
+// A simulated part shown seven times (p1 ... p7, compact rig) and its recipe, shield.yml;
+// empty when the simulation failed.
+fs::path SevenShotsOfOnePart(const fs::path& dir) {
+  const auto sim = testing::RunFlatscan("simulate --preset compact --parts 1 --no-calibration --no-markers --seed 4 "
+                                        "-q -o " + (dir / "data").string());
+  EXPECT_EQ(sim.exit_code, 0) << sim.err;
+  if (sim.exit_code != 0) return {};
+  const fs::path data = dir / "data";
+  std::ofstream csv(data / "pairs.csv");
+  csv << "id,left,right\n";
+  for (int k = 1; k <= 7; ++k) csv << fmt::format("p{},parts/part_000_left.png,parts/part_000_right.png\n", k);
+  std::ofstream(data / "shield.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.25\n"
+                                        "rig: rig.yml\nplane: plane_true.yml\n";
+  return data;
+}
+
 // A camera that loses frame after frame: each trigger still gets its record, the
 // station says it is not ready after not_ready_after of them in a row, and ready again
 // when a pair comes through.
 TEST(CameraPairSource, FramesLostInARowMakeTheStationNotReadyUntilOneComesThrough) {
   testing::ScratchDir dir("fake_not_ready");
-  const auto sim = testing::RunFlatscan("simulate --preset compact --parts 1 --no-calibration --no-markers --seed 4 "
-                                        "-q -o " + (dir.path() / "data").string());
-  ASSERT_EQ(sim.exit_code, 0) << sim.err;
-  const fs::path data = dir.path() / "data";
-  {
-    std::ofstream csv(data / "pairs.csv");
-    csv << "id,left,right\n";
-    for (int k = 1; k <= 7; ++k) csv << fmt::format("p{},parts/part_000_left.png,parts/part_000_right.png\n", k);
-    std::ofstream(data / "shield.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.25\n"
-                                                "rig: rig.yml\nplane: plane_true.yml\n";
-  }
+  const fs::path data = SevenShotsOfOnePart(dir.path());
+  ASSERT_FALSE(data.empty());
   FakeTriggerFault drop;
   drop.drop = true;
   std::map<std::pair<int64_t, bool>, FakeTriggerFault> faults;
@@ -252,6 +346,38 @@ TEST(CameraPairSource, FramesLostInARowMakeTheStationNotReadyUntilOneComesThroug
                                                   "ready", "p7 measured"}));
   EXPECT_EQ(log.not_ready_reason, "3 pairs in a row not delivered by aravis-fake:test; the last: the left camera gave "
                                   "no frame within 300 ms of trigger 4");
+}
+
+// The station through a camera unplugged at trigger 2 and back before trigger 6: a
+// record per trigger, not ready while it is gone, ready again and measuring after.
+TEST(CameraPairSource, TheStationKeepsRunningThroughACameraUnpluggedAndBack) {
+  testing::ScratchDir dir("fake_unplugged");
+  const fs::path data = SevenShotsOfOnePart(dir.path());
+  ASSERT_FALSE(data.empty());
+  auto scene = std::make_shared<FaultyScene>(MakeDatasetScene(data.string()), LoseLeftCameraAt(2));
+  scene->RemoveLeftCamera(2, 5);
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.reconnect_first = milliseconds(0);
+  const auto source = MakeFakeSource("aravis-fake:test", scene, options);
+  auto store = OpenSqliteStore((dir.path() / "results.db").string(), true);
+  StationOptions station_options;
+  station_options.until_idle_s = 1;
+  station_options.not_ready_after = 3;
+  InspectionStation station({LoadRecipe(data / "shield.yml")}, *source, *store, station_options);
+  EventLog log;
+  station.AddPublisher(&log);
+  const std::atomic<bool> stop{false};
+  EXPECT_EQ(station.Run(stop).committed, 7);
+  EXPECT_EQ(log.events, (std::vector<std::string>{"p1 measured", "p2 not measured", "p3 not measured",
+                                                  "p4 not measured", "not ready", "p5 not measured", "p6 measured",
+                                                  "ready", "p7 measured"}));
+  EXPECT_EQ(log.not_ready_reason.rfind("3 pairs in a row not delivered by aravis-fake:test; the last: trigger 4: the "
+                                       "left camera is lost since trigger 2",
+                                       0),
+            0u)
+      << log.not_ready_reason;
+  EXPECT_EQ(source->Reconnections(), 1);
 }
 
 TEST(CameraPairSource, NamesACameraSpecItCannotUse) {
