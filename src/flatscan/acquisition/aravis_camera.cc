@@ -9,6 +9,7 @@
 #include <mutex>
 #include <set>
 #include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -50,8 +51,9 @@ struct FakeContext {
   int64_t first_pulse_ns = 0, period_ns = 0;
 };
 
-// The fake camera's fill callback (on its stream thread): the caller's FakeFill.
-void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat) {
+// The fake camera's fill callback (on its stream thread): the caller's FakeFill. In
+// Mono16 the 8-bit fill is spread to 16 bits, v * 257 (255 -> 65535).
+void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat format) {
   auto& fake = *static_cast<FakeContext*>(data);
   const int width = arv_buffer_get_image_width(buffer), height = arv_buffer_get_image_height(buffer);
   FakeContext::Triggered t;
@@ -67,7 +69,14 @@ void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat) {
   }
   // The only public way to the buffer's memory is const; the fake camera owns it here.
   auto* pixels = static_cast<uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-  fake.fill(width, height, pixels, t.tag);
+  if (format == ARV_PIXEL_FORMAT_MONO_16) {
+    std::vector<uint8_t> grey(size_t(width) * size_t(height));
+    fake.fill(width, height, grey.data(), t.tag);
+    auto* words = reinterpret_cast<uint16_t*>(pixels);
+    for (size_t i = 0; i < grey.size(); ++i) words[i] = uint16_t(grey[i] * 257);
+  } else {
+    fake.fill(width, height, pixels, t.tag);
+  }
   // Its time is when it was triggered (its exposure), not when its thread came to fill
   // it: a loaded machine delays the thread, which would put the two fakes' frames of
   // one trigger apart (103 ms, measured under ctest -j2 beside a build).
@@ -134,6 +143,36 @@ struct StreamState {
 int64_t HostClockNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+PixelFormat ParsePixelFormat(const std::string& name, const std::string& option) {
+  for (const PixelFormat f : {PixelFormat::kMono8, PixelFormat::kMono10, PixelFormat::kMono12, PixelFormat::kMono16})
+    if (PixelFormatName(f) == name) return f;
+  ThrowInputError("{} '{}': expected Mono8, Mono10, Mono12 or Mono16 (unpacked)", option, name);
+}
+
+std::string PixelFormatName(PixelFormat format) { return fmt::format("Mono{}", PixelFormatBits(format)); }
+
+int PixelFormatBits(PixelFormat format) {
+  switch (format) {
+    case PixelFormat::kMono8: return 8;
+    case PixelFormat::kMono10: return 10;
+    case PixelFormat::kMono12: return 12;
+    case PixelFormat::kMono16: return 16;
+  }
+  return 8;
+}
+
+cv::Mat1b ReduceToMono8(const uint16_t* pixels, int width, int height, size_t stride_words, int bits) {
+  FLATSCAN_CHECK(bits >= 8 && bits <= 16);
+  const int shift = bits - 8;
+  cv::Mat1b out(height, width);
+  for (int y = 0; y < height; ++y) {
+    const uint16_t* row = pixels + size_t(y) * stride_words;
+    uint8_t* to = out.ptr(y);
+    for (int x = 0; x < width; ++x) to[x] = uint8_t(std::min(255, row[x] >> shift));
+  }
+  return out;
 }
 
 CameraInterfaces ParseCameraInterfaces(const std::string& list, const std::string& option) {
@@ -346,8 +385,9 @@ void AravisCamera::Start(const AcquisitionSettings& settings) {
   FLATSCAN_CHECK(!impl_->stream_);
   FLATSCAN_CHECK(settings.buffers >= 1);
   GError* error = nullptr;
-  arv_camera_set_pixel_format(camera, ARV_PIXEL_FORMAT_MONO_8, &error);
-  Check(error, fmt::format("camera {}: cannot set pixel format Mono8", name));
+  const std::string format = PixelFormatName(settings.pixel_format);
+  arv_camera_set_pixel_format_from_string(camera, format.c_str(), &error);
+  Check(error, fmt::format("camera {}: cannot set pixel format {}", name, format));
   arv_camera_set_acquisition_mode(camera, ARV_ACQUISITION_MODE_CONTINUOUS, &error);
   Check(error, fmt::format("camera {}: cannot set continuous acquisition", name));
   SetExposureAndGain(settings.exposure_us, settings.gain_db);
@@ -478,11 +518,21 @@ std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wai
   const ArvPixelFormat format = arv_buffer_get_image_pixel_format(buffer);
   size_t size = 0;
   const void* data = arv_buffer_get_data(buffer, &size);
+  const int bits = format == ARV_PIXEL_FORMAT_MONO_8    ? 8
+                   : format == ARV_PIXEL_FORMAT_MONO_10 ? 10
+                   : format == ARV_PIXEL_FORMAT_MONO_12 ? 12
+                   : format == ARV_PIXEL_FORMAT_MONO_16 ? 16
+                                                        : 0;
+  const size_t bytes = size_t(width) * size_t(height) * (bits > 8 ? 2 : 1);
   // The fake camera reports size 0 for a frame its callback filled (docs/cameras.md).
-  if (format != ARV_PIXEL_FORMAT_MONO_8 || width <= 0 || height <= 0 ||
-      (size != 0 && size < size_t(width) * size_t(height))) {
-    frame.problem = fmt::format("unexpected frame: {} x {}, pixel format 0x{:08x}, {} bytes (expected Mono8)", width,
-                                height, uint32_t(format), size);
+  if (bits == 0 || width <= 0 || height <= 0 || (size != 0 && size < bytes)) {
+    frame.problem = fmt::format("unexpected frame: {} x {}, pixel format 0x{:08x}, {} bytes (expected Mono8, Mono10, "
+                                "Mono12 or Mono16)",
+                                width, height, uint32_t(format), size);
+    return frame;
+  }
+  if (bits > 8) {  // the reduction of PixelFormat's comment, into an image of its own
+    frame.image = ReduceToMono8(static_cast<const uint16_t*>(data), width, height, size_t(width), bits);
     return frame;
   }
   // cv::Mat over the buffer: the boundary detector reads the camera's memory.

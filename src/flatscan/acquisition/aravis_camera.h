@@ -80,11 +80,35 @@ struct CameraFrame {
   std::string problem;  // empty for a complete frame, else why not ("missing packets", ...)
 };
 
+// The cameras' pixel format (GenICam PixelFormat). The boundary detector reads 8-bit
+// grey levels. A Mono10, Mono12 or Mono16 frame (unpacked: one little-endian 16-bit word
+// per pixel, the value in its low 10, 12 or 16 bits) is reduced to 8 bits by keeping its
+// 8 most significant bits, v >> (bits - 8): what a camera does itself to give Mono8 from
+// its 10 or 12 bit converter. The map is linear, so an edge's grey-level profile keeps its
+// shape and the sub-pixel boundary does not move (a gamma or a window would bend the
+// profile toward one side of the edge); full scale stays full scale, and one 8-bit level
+// is 4 (Mono10), 16 (Mono12) or 256 (Mono16) raw levels. It costs one pass into a new
+// image: the one copy Mono8 does not need. Packed formats (Mono10p, Mono12Packed) are
+// not read.
+enum class PixelFormat { kMono8, kMono10, kMono12, kMono16 };
+// "Mono8", "Mono10", "Mono12", "Mono16" (the GenICam names); throws InputError
+// "<option> '<name>': expected ..." for any other.
+PixelFormat ParsePixelFormat(const std::string& name, const std::string& option);
+std::string PixelFormatName(PixelFormat format);
+int PixelFormatBits(PixelFormat format);  // 8, 10, 12, 16
+// The rule above on a width x height frame of 16-bit words (row after row, `stride_words`
+// words apart) holding `bits`-bit values; a value above full scale (a camera that fills
+// unused bits) gives 255.
+cv::Mat1b ReduceToMono8(const uint16_t* pixels, int width, int height, size_t stride_words, int bits);
+
 // Where a frame's exposure starts (GenICam TriggerSelector FrameStart).
 enum class TriggerSource { kSoftware, kLine0 };
 
 struct AcquisitionSettings {
   TriggerSource trigger = TriggerSource::kSoftware;
+  // A fake camera offers Mono8 and Mono16 (Aravis 0.8.26): in Mono16 it shows each 8-bit
+  // grey level v of its fill as v * 257 (full scale to full scale).
+  PixelFormat pixel_format = PixelFormat::kMono8;
   // The recipe's (station/recipe.h `camera:`); nullopt: leave the camera's own setting.
   std::optional<double> exposure_us, gain_db;
   int buffers = 8;         // frames the camera can hold before the station takes them
@@ -124,7 +148,8 @@ class AravisCamera {
   // setting or gives no frame at all.
   GrabStatistics TestGrab(int frames, std::chrono::milliseconds timeout);
 
-  // Triggered acquisition in Mono8: sets pixel format, exposure, gain and trigger and
+  // Triggered acquisition (settings.pixel_format; frames reduced to 8 bits as stated at
+  // PixelFormat): sets pixel format, exposure, gain and trigger and
   // queues the buffers. Throws InputError naming the camera and the setting it refused.
   // A fake camera ignores triggers (Aravis 0.8.26): it fills a buffer at every tick of
   // its frame period (set to 4 ms here), so it is given one buffer per Trigger().

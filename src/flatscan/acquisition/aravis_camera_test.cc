@@ -35,6 +35,22 @@ TEST(AravisCamera, ATestGrabMeasuresTheFramesTheCameraGives) {
   EXPECT_GT(s.frames_per_second, 0);
 }
 
+TEST(PixelFormat, TenTwelveAndSixteenBitsKeepTheirEightMostSignificantBits) {
+  // Mono10: 4 raw levels a grey level; Mono12: 16; Mono16: 256. A stride wider than the row.
+  const std::vector<uint16_t> raw = {0, 3, 4, 1023, 7, 9,  //
+                                     16, 4095, 4096, 65535, 0, 0};
+  const cv::Mat1b ten = ReduceToMono8(raw.data(), 4, 2, 6, 10);
+  EXPECT_EQ(std::vector<uint8_t>(ten.begin(), ten.end()), (std::vector<uint8_t>{0, 0, 1, 255, 4, 255, 255, 255}));
+  const cv::Mat1b twelve = ReduceToMono8(raw.data(), 4, 2, 6, 12);
+  EXPECT_EQ(std::vector<uint8_t>(twelve.begin(), twelve.end()), (std::vector<uint8_t>{0, 0, 0, 63, 1, 255, 255, 255}));
+  const cv::Mat1b sixteen = ReduceToMono8(raw.data(), 4, 2, 6, 16);
+  EXPECT_EQ(std::vector<uint8_t>(sixteen.begin(), sixteen.end()), (std::vector<uint8_t>{0, 0, 0, 3, 0, 15, 16, 255}));
+  EXPECT_EQ(ParsePixelFormat("Mono12", "--pixel-format"), PixelFormat::kMono12);
+  EXPECT_EQ(PixelFormatName(PixelFormat::kMono10), "Mono10");
+  EXPECT_EQ(testing::InputErrorOf([] { ParsePixelFormat("Mono12p", "--pixel-format"); }),
+            "--pixel-format 'Mono12p': expected Mono8, Mono10, Mono12 or Mono16 (unpacked)");
+}
+
 TEST(AravisCamera, AFakeFrameAsLargeAsTheCompactRigs) {  // beyond the fake sensor's 2048 x 2048
   const auto camera = AravisCamera::OpenFake("RIGHT", 2592, 1944, Backlit);
   const GrabStatistics s = camera->TestGrab(2, std::chrono::milliseconds(2000));

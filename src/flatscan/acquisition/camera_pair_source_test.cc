@@ -103,6 +103,28 @@ TEST(CameraPairSource, FakeCamerasShowTheDatasetPairByPairWithoutACopy) {
   EXPECT_FALSE(source->Next(milliseconds(50)));  // no fourth trigger past the dataset
 }
 
+// Mono16 through the fakes (each grey level v sent as v * 257): reduced to the dataset's
+// pixels exactly. Mono12, which the fake does not offer: the camera and format named.
+TEST(CameraPairSource, SixteenBitFramesAreReducedToTheEightBitsTheyCameFrom) {
+  testing::ScratchDir dir("fake_mono16");
+  const auto images = WriteNoiseDataset(dir.path(), 2);
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.acquisition.pixel_format = PixelFormat::kMono16;
+  const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options);
+  for (int k = 1; k <= 2; ++k) {
+    const std::optional<SourcePair> pair = source->Next(milliseconds(2000));
+    ASSERT_TRUE(pair);
+    ASSERT_FALSE(pair->not_measurable) << *pair->not_measurable;
+    EXPECT_TRUE(Same(pair->left_image, images[size_t(k - 1)].first)) << k;
+    EXPECT_TRUE(Same(pair->right_image, images[size_t(k - 1)].second)) << k;
+  }
+  options.acquisition.pixel_format = PixelFormat::kMono12;
+  EXPECT_EQ(testing::InputErrorOf([&] { MakeFakeSource("aravis-fake:test", MakeDatasetScene(dir.path().string()), options); })
+                .rfind("camera Aravis Fake (FAKE-LEFT): cannot set pixel format Mono12: ", 0),
+            0u);
+}
+
 TEST(CameraPairSource, ABufferComesBackToTheCameraOnlyWhenItsPairIsDone) {
   testing::ScratchDir dir("fake_buffers");
   const auto images = WriteNoiseDataset(dir.path(), 4);

@@ -59,6 +59,8 @@ class CaptureCalibrationCommand : public Command {
     sub_->add_option("--frame-timeout", frame_timeout_ms_, "milliseconds a camera has to deliver a triggered frame")
         ->default_val(frame_timeout_ms_)
         ->check(CLI::Range(1, 600000));
+    sub_->add_option("--pixel-format", pixel_format_, "Mono8, or Mono10/Mono12/Mono16 reduced to 8 bits (docs/cameras.md)")
+        ->default_val(pixel_format_);
     sub_->add_option("--interfaces", interfaces_, "where to look for the cameras: gige, usb3, fake (comma-separated)")
         ->default_val(interfaces_);
   }
@@ -92,6 +94,7 @@ class CaptureCalibrationCommand : public Command {
     o.acquisition.exposure_us = exposure_us_;
     o.acquisition.gain_db = gain_db_;
     o.frame_timeout = std::chrono::milliseconds(frame_timeout_ms_);
+    o.acquisition.pixel_format = ParsePixelFormat(pixel_format_, "--pixel-format");
     if (cameras_.rfind(kFakePrefix, 0) == 0) {
       const std::string dir = cameras_.substr(std::string(kFakePrefix).size());
       std::vector<PairEntry> pairs;
@@ -146,7 +149,7 @@ class CaptureCalibrationCommand : public Command {
     return 0;
   }
 
-  std::string cameras_, board_, output_, interfaces_ = "gige,usb3";
+  std::string cameras_, board_, output_, interfaces_ = "gige,usb3", pixel_format_ = "Mono8";
   double square_mm_ = 0;
   int pairs_ = 20, every_ms_ = 1500, frame_timeout_ms_ = 1000;
   std::optional<double> exposure_us_, gain_db_;
