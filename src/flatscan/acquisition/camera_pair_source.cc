@@ -206,8 +206,13 @@ std::string CameraPairSource::LostText(const Side& side) const {
                             side.last_failure, next_s);
 }
 
+bool CameraPairSource::HasPending() const {
+  std::lock_guard lock(mutex_);
+  return !pending_.empty();
+}
+
 void CameraPairSource::Trigger() {
-  if (options_.acquisition.trigger == TriggerSource::kLine0) return;
+  if (options_.acquisition.trigger == TriggerSource::kLine0 || triggers_stopped_) return;
   std::lock_guard one_at_a_time(trigger_mutex_);
   int64_t trigger = 0;
   {

@@ -114,6 +114,9 @@ class CameraPairSource : public PairSource {
   // Sets both cameras' exposure and gain to the recipe's. A camera that refuses makes
   // every pair "not measured" (with the camera's reason) until a recipe it takes.
   void UseRecipe(const Recipe& recipe) override;
+  // Triggers from now on are ignored; HasPending: fired triggers whose pair is not taken.
+  void StopTriggers() override { triggers_stopped_ = true; }
+  bool HasPending() const override;
   // The camera open now on that side (null while it is lost); any thread.
   std::shared_ptr<AravisCamera> Camera(bool left) const;
   // Times a lost camera was opened again.
@@ -156,6 +159,7 @@ class CameraPairSource : public PairSource {
   CameraSourceOptions options_;
   AcquisitionSettings acquisition_;  // options_.acquisition with the recipe's exposure and gain (trigger_mutex_)
   int reconnections_ = 0;            // trigger_mutex_
+  std::atomic<bool> triggers_stopped_{false};
   std::shared_ptr<FakeScene> scene_;
   mutable std::mutex mutex_;
   std::condition_variable fired_cv_;

@@ -402,6 +402,24 @@ TEST(CameraPairSource, TheStationKeepsRunningThroughACameraUnpluggedAndBack) {
   EXPECT_EQ(source->Reconnections(), 1);
 }
 
+// A station told to stop with triggers fired and not yet taken: it fires no more, and
+// records every one fired before it stops.
+TEST(CameraPairSource, AStoppingStationRecordsEveryTriggerAlreadyFired) {
+  testing::ScratchDir dir("fake_stop_drain");
+  const fs::path data = SevenShotsOfOnePart(dir.path());
+  ASSERT_FALSE(data.empty());
+  CameraSourceOptions options;  // triggered from outside, as by --trigger-rate or the PLC
+  const auto source = MakeFakeSource("aravis-fake:test", MakeDatasetScene(data.string()), options);
+  for (int k = 0; k < 5; ++k) source->Trigger();
+  auto store = OpenSqliteStore((dir.path() / "results.db").string(), true);
+  InspectionStation station({LoadRecipe(data / "shield.yml")}, *source, *store, StationOptions{});
+  const std::atomic<bool> stop{true};  // a SIGTERM before the station took any pair
+  EXPECT_EQ(station.Run(stop).committed, 5);
+  source->Trigger();  // a trigger after the stop is not taken
+  EXPECT_EQ(source->Triggers(), 5);
+  EXPECT_FALSE(source->HasPending());
+}
+
 TEST(CameraPairSource, NamesACameraSpecItCannotUse) {
   const CameraInterfaces fake = CameraInterfaces::FakeOnly();  // nothing sent on a network
   EXPECT_EQ(testing::InputErrorOf([&] { MakeCameraSource("cameras:A", {}, fake); }),

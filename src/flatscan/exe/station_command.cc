@@ -176,6 +176,10 @@ class StationCommand : public Command {
     if (trigger_rate_hz_) rate.emplace(*trigger_rate_hz_, sources.trigger);
     try {
       station.Run(StopGracefullyOnSignal());
+      rate.reset();
+      if (sources.cameras)
+        spdlog::info("{}: {} triggers fired, {} reconnection(s)", sources.cameras->Name(), sources.cameras->Triggers(),
+                     sources.cameras->Reconnections());
     } catch (const StoreError& e) {
       spdlog::error("the station stops: it cannot record ({})", e.what());
       return 2;
@@ -189,6 +193,7 @@ class StationCommand : public Command {
     std::unique_ptr<PairSource> source;
     std::unique_ptr<TriggeredSource> triggered;  // a file source released by triggers
     std::function<void()> trigger;               // fires one trigger; empty: none
+    CameraPairSource* cameras = nullptr;         // a camera source
     PairSource& Station() const { return triggered ? *triggered : *source; }
   };
 
@@ -200,6 +205,7 @@ class StationCommand : public Command {
     if (camera) {
       std::unique_ptr<CameraPairSource> cameras = MakeCameraSource(trigger_ == "line0", camera_settings);
       if (trigger_ != "line0") s.trigger = [c = cameras.get()] { c->Trigger(); };
+      s.cameras = cameras.get();
       s.source = std::move(cameras);
       return s;
     }

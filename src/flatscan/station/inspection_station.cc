@@ -228,8 +228,17 @@ void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
         .count();
   };
   size_t source_recipe = recipes_.size();  // the recipe the source was last told of
+  bool stopping = false;
+  // Stop: no new triggers, then the pairs of those already fired (each trigger's record).
+  const auto go_on = [&] {
+    if (failed) return false;
+    if (!stop) return true;
+    if (!stopping) source_.StopTriggers();
+    stopping = true;
+    return source_.HasPending();
+  };
   const auto next = [&](tbb::flow_control& control) -> Item {
-    while (!stop && !failed) {
+    while (go_on()) {
       const size_t active = active_.load();
       if (active != source_recipe) source_.UseRecipe(recipes_[active].recipe);
       source_recipe = active;

@@ -58,6 +58,11 @@ class PairSource {
   // The recipe the next pairs are measured with (called before the first pair and at
   // each change): a camera source sets its cameras' exposure and gain.
   virtual void UseRecipe(const Recipe& /*recipe*/) {}
+  // The station is stopping: a source that fires triggers (a camera source) takes no new
+  // ones from now on, and HasPending() says whether triggers already fired still await
+  // their pair; the station takes those before it stops, so that every trigger has its record.
+  virtual void StopTriggers() {}
+  virtual bool HasPending() const { return false; }
 };
 
 // The folder source's timing and clean-up (station/folder_source.h).
