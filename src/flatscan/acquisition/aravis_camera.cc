@@ -498,8 +498,8 @@ void AravisCamera::Trigger(uint64_t tag, const FakeTriggerFault& fault) {
 }
 
 std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wait) {
-  FLATSCAN_CHECK(impl_->stream_);
   const std::shared_ptr<StreamState> state = impl_->stream_;
+  if (!state) return std::nullopt;  // stopped
   ArvBuffer* buffer = wait.count() > 0 ? arv_stream_timeout_pop_buffer(state->stream, guint64(wait.count()))
                                        : arv_stream_try_pop_buffer(state->stream);
   if (!buffer) return std::nullopt;

@@ -164,7 +164,8 @@ class AravisCamera {
   // A software trigger now (any thread); `tag` reaches a fake camera's fill. Throws
   // InputError when the camera refuses it, or is lost (ControlLost).
   void Trigger(uint64_t tag = 0, const FakeTriggerFault& fault = {});
-  // The next frame, waiting at most `wait`; nullopt when none came.
+  // The next frame, waiting at most `wait`; nullopt when none came, or when stopped.
+  // Not concurrently with Start or Stop.
   std::optional<CameraFrame> NextFrame(std::chrono::microseconds wait);
   bool IsFake() const;
   // The camera stopped answering (Aravis's control-lost signal: a GigE camera's heartbeat

@@ -161,7 +161,8 @@ std::chrono::milliseconds ReconnectDelay(int failed_attempts, milliseconds first
 void CameraPairSource::Lose(Side& side, int64_t trigger, const std::string& reason) {
   spdlog::error("{}: the {} camera is lost at trigger {}: {}; reconnecting", name_, SideName(side.left), trigger,
                 reason);
-  side.camera->Stop();  // its frames still held stay valid
+  // Closed when the last trigger fired on it has its pair (Next's thread may be waiting
+  // for its frames now); its frames still held stay valid.
   side.camera.reset();
   side.lost_reason = reason;
   side.lost_at_trigger = trigger;

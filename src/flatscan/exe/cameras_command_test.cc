@@ -1,6 +1,13 @@
 // flatscan cameras against Aravis's in-process fake camera.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
 #include <string>
+#include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -8,6 +15,7 @@
 
 namespace flatscan {
 namespace {
+namespace fs = std::filesystem;
 
 // --interfaces fake: GigE Vision discovery would broadcast on the machine's networks.
 TEST(CamerasCommand, ListsAndTestsTheFakeCamera) {
@@ -65,6 +73,124 @@ TEST(CamerasCommand, TestsAGigEVisionCameraByItsAddressOverLoopback) {
   EXPECT_NE(absent.err.find("camera '127.0.0.9': cannot open the GigE Vision camera at this address: "),
             std::string::npos)
       << absent.err;
+}
+
+// Two fake GigE Vision cameras need two addresses (each binds its GVCP port 3956), and
+// the tests must not change the machine's network: they run in a private network and
+// process namespace (`unshare --net --pid --fork --kill-child`, as root), whose own `lo`
+// gets 127.0.0.2. Everything in it, cameras included, ends when the namespace does.
+class TwoGigECameras : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::system("unshare --net --pid --fork --kill-child ip link set lo up >/dev/null 2>&1") != 0)
+      GTEST_SKIP() << "a private network namespace needs root (unshare --net) and iproute2";
+    dir_ = std::make_unique<testing::ScratchDir>("two_gige");
+    const fs::path d = dir_->path();
+    // A rig for the fake cameras' 512 x 512 frames; their test pattern is no part.
+    std::ofstream(d / "scene.yml") << "camera:\n  width: 512\n  height: 512\n  pixel_size_um: 6.0\n"
+                                      "dataset:\n  parts: 0\n";
+    const auto sim = testing::RunFlatscan(
+        fmt::format("simulate --scene {0}/scene.yml --no-calibration --no-markers --seed 1 -q -o {0}/data", d.string()));
+    ASSERT_EQ(sim.exit_code, 0) << sim.err;
+    std::ofstream(d / "gv.yml") << "name: gv\nthickness_mm: 0.2\ntolerance_mm: 0.1\nrig: data/rig.yml\n"
+                                   "plane: data/plane_true.yml\n";
+  }
+
+  // Runs in the namespace: the two cameras (the right one with `right_options`), a wait
+  // until both answer, the station for `seconds` at 5 triggers/s, and `during`
+  // (shell, while the station runs; $B is the right camera's pid). Returns the exit code.
+  int RunStation(const std::string& right_options, double seconds, const std::string& during = "") {
+    const fs::path d = dir_->path();
+    std::ofstream(d / "run.sh") << fmt::format(
+        "set -u\ncd {0}\nip link set lo up && ip addr add 127.0.0.2/8 dev lo || exit 3\n"
+        "arv-fake-gv-camera-0.8 -i 127.0.0.1 -s GV-LEFT > left.log 2>&1 &\n"
+        "arv-fake-gv-camera-0.8 -i 127.0.0.2 -s GV-RIGHT {2} > right.log 2>&1 &\nB=$!\n"
+        // A camera answers once a test grab gets a frame, complete or not (the lossy one's are not).
+        "answers() {{ out=$({1} cameras --interfaces gige --test $1 --frames 1 2>&1) || echo \"$out\" | grep -q "
+        "incomplete; }}\n"
+        "for i in $(seq 40); do answers 127.0.0.1 && answers 127.0.0.2 && break; sleep 0.25; done\n"
+        "{1} station --recipe gv.yml --source cameras:127.0.0.1,127.0.0.2 --trigger-rate 5 --max-skew 100 "
+        "--store results.db --station-id gv > station.log 2>&1 &\nS=$!\n"
+        // One SIGTERM (`timeout` would signal its process group too: a second one ends the station at once).
+        "(sleep {3}; kill -TERM $S) &\n{4}\nwait $S\n",
+        d.string(), FLATSCAN_BINARY, right_options, seconds, during);
+    testing::BackgroundProcess run("unshare", {"--net", "--pid", "--fork", "--kill-child", "sh", (d / "run.sh").string()},
+                                   d / "run.log");
+    return run.Wait(seconds + 60);
+  }
+  std::string Log() const { return testing::ReadFileBytes(dir_->path() / "station.log"); }
+  // The errors of the records, in order.
+  std::vector<std::string> Errors() const {
+    const auto r = testing::RunFlatscan("results --store " + (dir_->path() / "results.db").string());
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    std::vector<std::string> errors;
+    std::istringstream lines(r.out);
+    for (std::string line; std::getline(lines, line);)
+      if (!line.empty()) errors.push_back(nlohmann::json::parse(line).value("error", ""));
+    return errors;
+  }
+  // "N triggers fired" from the station's last line.
+  int TriggersFired() const {
+    const std::string log = Log();
+    const size_t at = log.rfind(" triggers fired");
+    if (at == std::string::npos) return -1;
+    return std::stoi(log.substr(log.rfind(' ', at - 1) + 1));
+  }
+  std::unique_ptr<testing::ScratchDir> dir_;
+};
+
+// The real GigE Vision protocol (GVCP control, GVSP frames) with two cameras, one trigger
+// for both: every trigger a record, each the measurement of the two frames (the fakes'
+// pattern is no part), none a camera fault.
+TEST_F(TwoGigECameras, AStationMeasuresEveryTriggeredPair) {
+  ASSERT_EQ(RunStation("", 3), 0) << Log();
+  const std::vector<std::string> errors = Errors();
+  EXPECT_GE(errors.size(), 10u);
+  EXPECT_EQ(int(errors.size()), TriggersFired()) << Log();
+  for (const std::string& e : errors)
+    EXPECT_EQ(e, "left camera frame: the part touches the image border: place it fully inside both cameras' views");
+}
+
+// The right camera loses a tenth of its packets (the fake does not resend them): every
+// frame of it is incomplete, and every trigger a record saying so.
+TEST_F(TwoGigECameras, LostPacketsGiveIncompleteFramesAndARecordEach) {
+  ASSERT_EQ(RunStation("-r 100", 3), 0) << Log();
+  const std::vector<std::string> errors = Errors();
+  EXPECT_GE(errors.size(), 5u);
+  EXPECT_EQ(int(errors.size()), TriggersFired()) << Log();
+  // Aravis waits for a frame's missing packets before it reports it incomplete: the frames
+  // of the last triggers, still waiting at the stop, are reported as not come.
+  size_t incomplete = 0;
+  for (size_t k = 0; k < errors.size(); ++k) {
+    const std::string cut = fmt::format("the right camera gave no frame within 1000 ms of trigger {}", k + 1);
+    const std::string lossy =
+        fmt::format("the right camera's frame of trigger {} is incomplete: timeout while the frame arrived", k + 1);
+    EXPECT_TRUE(errors[k] == lossy || (errors[k] == cut && k + 3 >= errors.size())) << errors[k];
+    incomplete += errors[k] == lossy;
+  }
+  EXPECT_GE(incomplete + 3, errors.size());
+}
+
+// The right camera killed after 2 s and started again 2.5 s later: the station goes on,
+// records every trigger, reconnects to the camera and measures again.
+TEST_F(TwoGigECameras, ACameraThatGoesAwayAndComesBackIsReconnected) {
+  ASSERT_EQ(RunStation("", 9,
+                       "sleep 2; kill $B; sleep 2.5\n"
+                       "arv-fake-gv-camera-0.8 -i 127.0.0.2 -s GV-RIGHT > right2.log 2>&1 &"),
+            0)
+      << Log();
+  const std::string log = Log();
+  const std::vector<std::string> errors = Errors();
+  EXPECT_EQ(int(errors.size()), TriggersFired()) << log;
+  EXPECT_NE(log.find("1 reconnection(s)"), std::string::npos) << log;
+  EXPECT_NE(log.find("the right camera is back (Aravis Fake (GV-RIGHT, 127.0.0.2))"), std::string::npos) << log;
+  size_t lost = 0;
+  for (const std::string& e : errors) lost += e.find("the right camera is lost since trigger") != std::string::npos;
+  EXPECT_GE(lost, 3u);
+  // Measured again after the reconnection: the last records are the frames' own.
+  ASSERT_GE(errors.size(), 4u);
+  for (size_t k = errors.size() - 4; k + 1 < errors.size(); ++k)
+    EXPECT_EQ(errors[k].rfind("left camera frame: ", 0), 0u) << errors[k];
 }
 
 }  // namespace

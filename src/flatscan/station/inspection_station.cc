@@ -58,8 +58,11 @@ InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& 
     const auto [left, right] = PairImages(loaded, pair, inputs);
     r.left_sha256 = left.sha256;
     r.right_sha256 = right.sha256;
-    const InspectionResult result = InspectPart(loaded.rig, loaded.plane, left.image, right.image, recipe.params,
-                                                inputs.left_file, inputs.right_file);
+    // Messages name the image: its file, or the camera a frame came from.
+    const InspectionResult result =
+        InspectPart(loaded.rig, loaded.plane, left.image, right.image, recipe.params,
+                    pair.frames ? "left camera frame" : inputs.left_file,
+                    pair.frames ? "right camera frame" : inputs.right_file);
     if (const auto wrong = WrongPartReason(recipe, result))
       return NotMeasuredRecord(*wrong, recipe.params, recipe.spec, inputs);
     return MeasuredRecord(result, recipe.params, recipe.spec, inputs);

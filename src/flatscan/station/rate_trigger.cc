@@ -38,6 +38,12 @@ void RateTrigger::Loop(double hz) {
       spdlog::error("trigger {}: {}", n, e.what());
     }
     ++fired_;
+    const int64_t due = int64_t((Clock::now() - start) / period);  // the last tick that has passed
+    if (due > n) {
+      spdlog::warn("trigger rate: {} trigger(s) skipped: trigger {} took {:.0f} ms", due - n, n,
+                   std::chrono::duration<double, std::milli>(Clock::now() - (start + n * period)).count());
+      n = due;
+    }
   }
 }
 

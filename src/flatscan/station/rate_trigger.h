@@ -1,9 +1,12 @@
 #pragma once
 // Software triggers at a fixed rate (`flatscan station --trigger-rate HZ`): calls `fire`
 // every 1/HZ seconds on its own thread, from construction until destruction. Ticks are
-// scheduled on a steady clock from the start (no drift); a `fire` that takes longer than
-// a period delays the next ticks, which are then fired at once, none skipped, so that
-// the trigger count is the elapsed time times the rate.
+// scheduled on a steady clock from the start (no drift). A `fire` that takes longer than
+// a period (a camera that does not answer holds its software trigger for seconds) makes
+// the ticks that passed meanwhile skipped, with a warning, not fired late in a burst: a
+// trigger stands for a part in view at that moment, and cameras given a dozen triggers
+// within a millisecond do not follow (a fake GigE camera lost its frame pacing for good,
+// measured). Fired() counts the triggers actually fired.
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
