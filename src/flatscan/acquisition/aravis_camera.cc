@@ -80,7 +80,11 @@ void FillFake(ArvBuffer* buffer, void* data, guint32, guint32, ArvPixelFormat fo
   // Its time is when it was triggered (its exposure), not when its thread came to fill
   // it: a loaded machine delays the thread, which would put the two fakes' frames of
   // one trigger apart (103 ms, measured under ctest -j2 beside a build).
-  if (t.at_ns > 0) arv_buffer_set_system_timestamp(buffer, guint64(t.at_ns));
+  // Its own clock, too, as two PTP-synchronised cameras would stamp one trigger's frames.
+  if (t.at_ns > 0) {
+    arv_buffer_set_system_timestamp(buffer, guint64(t.at_ns));
+    arv_buffer_set_timestamp(buffer, guint64(t.at_ns));
+  }
 }
 
 constexpr uint8_t kDarkBelow = 13;  // 5% of full scale
@@ -511,6 +515,7 @@ std::optional<CameraFrame> AravisCamera::NextFrame(std::chrono::microseconds wai
   // A buffer the camera could not fill (a fake's too-small buffer) has no timestamp:
   // it arrived now.
   if (frame.timestamp_ns == 0) frame.timestamp_ns = HostClockNs();
+  frame.camera_timestamp_ns = int64_t(arv_buffer_get_timestamp(buffer));
   frame.frame_id = arv_buffer_get_frame_id(buffer);
   frame.problem = BufferProblem(arv_buffer_get_status(buffer));
   if (!frame.problem.empty()) return frame;

@@ -76,6 +76,9 @@ struct CameraFrame {
   // Host clock (UTC, ns) when the frame arrived (Aravis's system timestamp): the two
   // cameras' device clocks are not synchronised, the host's is one clock for both.
   int64_t timestamp_ns = 0;
+  // The camera's own clock (ns) at exposure (GenICam timestamp; 0 when it gives none):
+  // comparable between the two cameras only when PTP (IEEE 1588) synchronises them.
+  int64_t camera_timestamp_ns = 0;
   uint64_t frame_id = 0;
   std::string problem;  // empty for a complete frame, else why not ("missing packets", ...)
 };

@@ -308,6 +308,21 @@ std::optional<CameraFrame> CameraPairSource::FrameFor(AravisCamera& camera, cons
   }
 }
 
+// The two frames of one trigger further apart than max_skew on the chosen clock, or "".
+std::string CameraPairSource::SkewProblem(const CameraFrame& left, const CameraFrame& right, int64_t trigger) const {
+  const bool cameras = options_.skew_clock == CameraSourceOptions::Clock::kCamera;
+  if (cameras && (left.camera_timestamp_ns == 0 || right.camera_timestamp_ns == 0))
+    return fmt::format("the {} camera gives no timestamp of its own (the skew is measured on the cameras' clocks)",
+                       left.camera_timestamp_ns == 0 ? "left" : "right");
+  const int64_t apart = cameras ? left.camera_timestamp_ns - right.camera_timestamp_ns
+                                : left.timestamp_ns - right.timestamp_ns;
+  const double skew_ms = double(std::llabs(apart)) / 1e6;
+  if (skew_ms <= double(options_.max_skew.count())) return "";
+  return fmt::format("cameras out of sync: the frames of trigger {} are {:.1f} ms apart (limit {} ms){}", trigger,
+                     skew_ms, options_.max_skew.count(),
+                     cameras ? " on the cameras' clocks (are both synchronised by PTP?)" : "");
+}
+
 SourcePair CameraPairSource::Pair(const std::string& id, const std::optional<CameraFrame>& left,
                                   const std::optional<CameraFrame>& right, int64_t trigger) {
   SourcePair pair;
@@ -325,12 +340,7 @@ SourcePair CameraPairSource::Pair(const std::string& id, const std::optional<Cam
                             f->problem);
   }
   if (problem.empty() && !settings_problem_.empty()) problem = settings_problem_;
-  if (problem.empty()) {
-    const double skew_ms = double(std::llabs(left->timestamp_ns - right->timestamp_ns)) / 1e6;
-    if (skew_ms > double(options_.max_skew.count()))
-      problem = fmt::format("cameras out of sync: the frames of trigger {} are {:.1f} ms apart (limit {} ms)",
-                            trigger, skew_ms, options_.max_skew.count());
-  }
+  if (problem.empty()) problem = SkewProblem(*left, *right, trigger);
   if (!problem.empty()) {
     pair.not_measurable = problem;
     pair.source_fault = true;

@@ -53,6 +53,11 @@ struct CameraSourceOptions {
   // differs); a missed trigger shifts the pairing by a whole part period (100 ms or more
   // on a line): 20 ms tells the two apart.
   std::chrono::milliseconds max_skew{20};
+  // Whose clock the skew is measured on: the host's (when each frame arrived: one clock
+  // for both, but the transfer's jitter is in it), or the cameras' own (when each frame
+  // was exposed: exact, but only when PTP, IEEE 1588, synchronises the two cameras;
+  // unsynchronised clocks put every pair out of sync, and the reason says so).
+  enum class Clock { kHost, kCamera } skew_clock = Clock::kHost;
   // A camera lost (ControlLost, or a trigger it refused) is opened again after
   // reconnect_first, then after twice the last wait each time it fails, at most
   // reconnect_max: a camera back after a power cycle (a few seconds) is found within a
@@ -150,6 +155,7 @@ class CameraPairSource : public PairSource {
   bool EnsureCamera(Side& side, int64_t next_trigger);
   void Lose(Side& side, int64_t trigger, const std::string& reason);
   std::string LostText(const Side& side) const;
+  std::string SkewProblem(const CameraFrame& left, const CameraFrame& right, int64_t trigger) const;
   SourcePair Pair(const std::string& id, const std::optional<CameraFrame>& left,
                   const std::optional<CameraFrame>& right, int64_t trigger);
   std::string IdFor(int64_t trigger, int64_t ns) const;

@@ -255,6 +255,34 @@ TEST(CameraPairSource, ALostCameraIsRetriedOnlyWhenItsWaitIsOver) {
   EXPECT_FALSE(source->Camera(true));
 }
 
+// The skew measured on the cameras' own clocks (PTP-synchronised cameras): the right
+// camera exposing 60 ms late (the left is triggered first) is out of sync by them, the
+// others are pairs.
+TEST(CameraPairSource, TheSkewCanBeMeasuredOnTheCamerasClocks) {
+  testing::ScratchDir dir("fake_camera_clock");
+  const auto images = WriteNoiseDataset(dir.path(), 3);
+  FakeTriggerFault late;
+  late.delay = milliseconds(60);
+  auto scene = std::make_shared<FaultyScene>(MakeDatasetScene(dir.path().string()),
+                                             std::map<std::pair<int64_t, bool>, FakeTriggerFault>{{{2, false}, late}});
+  CameraSourceOptions options;
+  options.trigger_on_demand = true;
+  options.skew_clock = CameraSourceOptions::Clock::kCamera;
+  const auto source = MakeFakeSource("aravis-fake:test", scene, options);
+  std::vector<SourcePair> pairs;
+  while (!source->Exhausted())
+    if (auto pair = source->Next(milliseconds(2000))) pairs.push_back(std::move(*pair));
+  ASSERT_EQ(pairs.size(), 3u);
+  EXPECT_FALSE(pairs[0].not_measurable);
+  EXPECT_FALSE(pairs[2].not_measurable);
+  EXPECT_TRUE(Same(pairs[2].left_image, images[2].first));
+  const std::string reason = pairs[1].not_measurable.value_or("");
+  EXPECT_EQ(reason.rfind("cameras out of sync: the frames of trigger 2 are ", 0), 0u) << reason;
+  EXPECT_NE(reason.find(" ms apart (limit 20 ms) on the cameras' clocks (are both synchronised by PTP?)"),
+            std::string::npos)
+      << reason;
+}
+
 // line0: a fake line pulsing at 20 Hz, both fake cameras on it; the frames paired by
 // their timestamps, in the dataset's order.
 TEST(CameraPairSource, OnALineTheFramesArePairedByTheirTimestamps) {

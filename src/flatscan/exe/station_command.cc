@@ -111,6 +111,11 @@ class StationCommand : public Command {
                      "sync")
         ->default_val(max_skew_ms_)
         ->check(IntegerIn(1, 10000));
+    sub_->add_option("--skew-clock", skew_clock_,
+                     "cameras: the clock --max-skew is measured on: host (arrival) or camera (exposure; both cameras "
+                     "synchronised by PTP)")
+        ->default_val(skew_clock_)
+        ->check(CLI::IsMember({"host", "camera"}));
     sub_->add_option("--pixel-format", pixel_format_,
                      "cameras: Mono8, or Mono10/Mono12/Mono16 reduced to 8 bits by keeping the 8 most significant "
                      "(docs/cameras.md)")
@@ -234,6 +239,7 @@ class StationCommand : public Command {
     o.frame_timeout = std::chrono::milliseconds(frame_timeout_ms_);
     o.max_skew = std::chrono::milliseconds(max_skew_ms_);
     o.acquisition.pixel_format = ParsePixelFormat(pixel_format_, "--pixel-format");
+    o.skew_clock = skew_clock_ == "camera" ? CameraSourceOptions::Clock::kCamera : CameraSourceOptions::Clock::kHost;
     const bool external = trigger_rate_hz_ || !modbus_.empty();
     if (source_.rfind("aravis-fake:", 0) == 0) {
       const std::string dir = source_.substr(std::string("aravis-fake:").size());
@@ -320,7 +326,7 @@ class StationCommand : public Command {
   std::vector<std::string> recipes_;
   std::string source_, store_, station_id_, log_, status_, archive_;
   std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_, plant_store_, trigger_;
-  std::string pixel_format_ = "Mono8";
+  std::string pixel_format_ = "Mono8", skew_clock_ = "host";
   std::optional<double> until_idle_s_, trigger_rate_hz_;
   int frame_timeout_ms_ = 1000, max_skew_ms_ = 20, not_ready_after_ = StationOptions{}.not_ready_after;
   double half_pair_timeout_s_ = 10;
