@@ -3,6 +3,7 @@
 //   BM_CameraPairs: triggered pairs taken and released, no inspection: pairs per second
 //     and the CPU our side spends per pair (the thread that triggers, waits and pairs),
 //     against BM_CopyFramePair, one copy of a pair's pixels (what a copy would add);
+//   BM_ReduceMono12Pair: a Mono12 pair reduced to 8 bits (the one copy Mono12 costs);
 //   BM_StationThroughFakeCameras: `flatscan station`'s pipeline fed by the fake cameras at
 //     a rate the station keeps up with: latency from trigger to committed record.
 // The fakes fill a frame with a memcpy from memory (standing in for the camera's DMA), on
@@ -86,6 +87,23 @@ void BM_CopyFramePair(benchmark::State& state) {
   state.SetLabel("one copy of a pair's pixels (avoided)");
 }
 BENCHMARK(BM_CopyFramePair)->Unit(benchmark::kMillisecond);
+
+// A Mono12 camera's pair (16-bit words) reduced to 8 bits (aravis_camera.h's rule): the
+// copy that --pixel-format Mono12 costs, against BM_CopyFramePair.
+void BM_ReduceMono12Pair(benchmark::State& state) {
+  const PaperPair& f = TheFrames();
+  cv::Mat_<uint16_t> left, right;
+  f.left.convertTo(left, CV_16U, 16);
+  f.right.convertTo(right, CV_16U, 16);
+  for (auto _ : state) {
+    cv::Mat1b l = ReduceToMono8(left.ptr<uint16_t>(), left.cols, left.rows, left.step1(), 12);
+    cv::Mat1b r = ReduceToMono8(right.ptr<uint16_t>(), right.cols, right.rows, right.step1(), 12);
+    benchmark::DoNotOptimize(l.data);
+    benchmark::DoNotOptimize(r.data);
+  }
+  state.SetLabel("Mono12 -> 8 bits, both frames");
+}
+BENCHMARK(BM_ReduceMono12Pair)->Unit(benchmark::kMillisecond);
 
 void BM_CameraPairs(benchmark::State& state) {
   spdlog::set_level(spdlog::level::warn);
