@@ -49,6 +49,7 @@ std::unique_ptr<Command> MakeCalibratePlaneCommand();
 std::unique_ptr<Command> MakeRecipeCommand();
 std::unique_ptr<Command> MakeStationCommand();
 std::unique_ptr<Command> MakeResultsCommand();
+std::unique_ptr<Command> MakeReportCommand();
 std::unique_ptr<Command> MakeCamerasCommand();
 
 inline std::vector<std::unique_ptr<Command>> MakeCommands() {
@@ -66,6 +67,7 @@ inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   out.push_back(MakeRecipeCommand());
   out.push_back(MakeStationCommand());
   out.push_back(MakeResultsCommand());
+  out.push_back(MakeReportCommand());
   out.push_back(MakeCamerasCommand());
   return out;
 }

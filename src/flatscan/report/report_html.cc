@@ -1,0 +1,98 @@
+// RenderReportHtml (station_report.h): one HTML file, the charts inline.
+#include <fmt/format.h>
+
+#include "flatscan/report/station_report.h"
+#include "flatscan/report/svg_chart.h"
+
+namespace flatscan {
+namespace {
+
+constexpr const char* kStyle =
+    "body{font-family:sans-serif;margin:24px;color:#222}h1{font-size:22px}h2{font-size:18px;margin-top:28px}"
+    "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
+    "th{background:#f2f2f2}.num{text-align:right}.fail{color:#c00;font-weight:bold}.note{color:#555;font-size:12px}"
+    "code{background:#f4f4f4;padding:1px 4px}";
+
+std::string Row(const std::vector<std::string>& cells, bool header = false) {
+  std::string out = "<tr>";
+  for (const std::string& c : cells) out += header ? "<th>" + c + "</th>" : "<td>" + c + "</td>";
+  return out + "</tr>\n";
+}
+
+std::string CountsTable(const RecordCounts& c) {
+  return "<table>" + Row({"records", "measured", "pass", "fail", "marginal", "not measured", "yield"}, true) +
+         Row({std::to_string(c.records), std::to_string(c.measured), std::to_string(c.pass),
+              std::to_string(c.fail), std::to_string(c.marginal), std::to_string(c.not_measured),
+              c.measured ? fmt::format("{:.1f}%", 100 * c.Yield()) : "-"}) +
+         "</table>\n";
+}
+
+std::string PartsTable(const std::vector<ReportedPart>& parts, bool flatness) {
+  std::string out = "<table>" + Row({"#", "time (UTC)", "part", flatness ? "flatness (mm)" : "reason"}, true);
+  for (const ReportedPart& p : parts)
+    out += Row({std::to_string(p.sequence), HtmlEscape(p.time_utc), HtmlEscape(p.source_id),
+                flatness ? fmt::format("{:.4f} {}", p.flatness_mm, HtmlEscape(p.verdict)) : HtmlEscape(p.verdict)});
+  return out + "</table>\n";
+}
+
+std::string Capability(const RecipeReport& r) {
+  if (!r.capability) return "<p class=\"note\">Capability and the control chart need two measured parts or more.</p>\n";
+  const UpperCapability& c = *r.capability;
+  const IndividualsChart& i = *r.chart;
+  std::string out = "<table>" + Row({"n", "mean (mm)", "sigma within (MRbar/1.128)", "sigma overall", "Cpu", "Ppu",
+                                     "UCL (mm)", "MRbar (mm)"},
+                                    true);
+  out += Row({std::to_string(c.n), fmt::format("{:.4f}", c.mean), fmt::format("{:.4f}", c.sigma_within),
+              fmt::format("{:.4f}", c.sigma_overall), fmt::format("{:.2f}", c.cpu), fmt::format("{:.2f}", c.ppu),
+              fmt::format("{:.4f}", i.ucl), fmt::format("{:.4f}", i.mr_bar)});
+  out += "</table>\n<p class=\"note\">Cpu = (USL - mean) / (3 sigma within), Ppu = (USL - mean) / (3 sigma overall), "
+         "USL the tolerance; flatness has no lower limit (docs/spc.md).</p>\n";
+  out += ControlChartSvg(r.flatness_mm, i, r.tolerance_mm, r.signals);
+  if (r.signals.empty()) out += "<p>No Western Electric rule fires.</p>\n";
+  else {
+    out += fmt::format("<p class=\"fail\">{} Western Electric signal(s):</p><ul>\n", r.signals.size());
+    for (const RuleSignal& s : r.signals)
+      out += fmt::format("<li>part {} of the chart: rule {}, {} ({} the mean)</li>\n", s.index + 1, s.rule,
+                         WesternElectricRuleText(s.rule), s.above ? "above" : "below");
+    out += "</ul>\n";
+  }
+  return out + HistogramSvg(r.flatness_mm, r.tolerance_mm);
+}
+
+std::string Hashes(const std::vector<std::string>& hashes) {
+  std::string out;
+  for (const std::string& h : hashes) out += (out.empty() ? "" : ", ") + fmt::format("<code>{}</code>", HtmlEscape(h));
+  return out.empty() ? "-" : out;
+}
+
+std::string Recipe(const RecipeReport& r) {
+  std::string out = fmt::format("<h2>Recipe {}</h2>\n<p>Tolerance {:.3f} mm", HtmlEscape(r.name), r.tolerance_mm);
+  if (r.tolerances.size() > 1) out += fmt::format(" (changed during the period: {} tolerances)", r.tolerances.size());
+  out += "</p>\n" + CountsTable(r.counts) + Capability(r);
+  out += "<h3>Worst parts</h3>\n" + (r.worst.empty() ? std::string("<p>none measured</p>\n") : PartsTable(r.worst, true));
+  if (!r.not_measured.empty()) out += "<h3>Not measured (latest)</h3>\n" + PartsTable(r.not_measured, false);
+  out += fmt::format("<h3>Calibration</h3>\n<p>Rig files (SHA-256): {}<br>Plane files (SHA-256): {}</p>\n",
+                     Hashes(r.rigs), Hashes(r.planes));
+  if (r.rigs.size() > 1 || r.planes.size() > 1)
+    out += "<p class=\"fail\">The calibration changed during the period.</p>\n";
+  return out;
+}
+
+}  // namespace
+
+std::string RenderReportHtml(const StationReport& report) {
+  std::string out = fmt::format(
+      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>flatscan report</title><style>{}"
+      "</style></head><body>\n<h1>Flatness inspection report</h1>\n<p>Records from {} to {} (UTC), stations {}.</p>\n",
+      kStyle, HtmlEscape(report.first_utc.empty() ? "-" : report.first_utc),
+      HtmlEscape(report.last_utc.empty() ? "-" : report.last_utc), HtmlEscape(fmt::format("{}", fmt::join(report.stations, ", "))));
+  out += "<h2>Summary</h2>\n" + CountsTable(report.counts);
+  for (const RecipeReport& r : report.recipes) out += Recipe(r);
+  out += fmt::format("<h2>How this report was made</h2>\n<p>Query: <code>{}</code><br>Generated {} (UTC) by flatscan; "
+                     "records measured by flatscan {}.</p>\n</body></html>\n",
+                     HtmlEscape(report.query), HtmlEscape(report.generated_utc),
+                     HtmlEscape(fmt::format("{}", fmt::join(report.software_versions, ", "))));
+  return out;
+}
+
+}  // namespace flatscan

@@ -1,0 +1,107 @@
+#include "flatscan/report/station_report.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace flatscan {
+namespace {
+
+constexpr size_t kListed = 10;
+
+void AddOnce(std::vector<std::string>& list, const std::string& value) {
+  if (!value.empty() && std::find(list.begin(), list.end(), value) == list.end()) list.push_back(value);
+}
+
+std::string VerdictText(const InspectionRecord& r) {
+  if (!r.measured) return "not measured: " + r.error;
+  return std::string(VerdictName(r.judgement.verdict)) + (r.judgement.marginal ? " (marginal)" : "");
+}
+
+ReportedPart Part(const StationRecord& r) {
+  return {r.sequence, r.time_utc, r.source_id, r.inspection.values.flatness_mm, VerdictText(r.inspection)};
+}
+
+void Count(RecordCounts& c, const InspectionRecord& r) {
+  ++c.records;
+  if (!r.measured) {
+    ++c.not_measured;
+    return;
+  }
+  ++c.measured;
+  (r.judgement.pass() ? c.pass : c.fail) += 1;
+  c.marginal += r.judgement.marginal;
+}
+
+void FinishRecipe(RecipeReport& recipe, const std::vector<const StationRecord*>& records) {
+  std::vector<ReportedPart> measured;
+  for (const StationRecord* r : records) {
+    if (r->inspection.measured) measured.push_back(Part(*r));
+    else recipe.not_measured.push_back(Part(*r));
+  }
+  std::stable_sort(measured.begin(), measured.end(),
+                   [](const ReportedPart& a, const ReportedPart& b) { return a.flatness_mm > b.flatness_mm; });
+  measured.resize(std::min(measured.size(), kListed));
+  recipe.worst = std::move(measured);
+  std::reverse(recipe.not_measured.begin(), recipe.not_measured.end());
+  recipe.not_measured.resize(std::min(recipe.not_measured.size(), kListed));
+  if (recipe.flatness_mm.size() >= 2) {
+    recipe.capability = ComputeUpperCapability(recipe.flatness_mm, recipe.tolerance_mm);
+    recipe.chart = ComputeIndividualsChart(recipe.flatness_mm);
+    recipe.signals = WesternElectricSignals(recipe.flatness_mm, *recipe.chart);
+  }
+}
+
+}  // namespace
+
+std::string HtmlEscape(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+StationReport SummariseRecords(const std::vector<StationRecord>& records, const std::string& recipe_name,
+                               const std::string& query) {
+  StationReport report;
+  report.query = query;
+  report.generated_utc = UtcNowIso8601();
+  std::map<std::string, std::vector<const StationRecord*>> by_recipe;
+  for (const StationRecord& r : records) {
+    if (!recipe_name.empty() && r.recipe_name != recipe_name) continue;
+    if (report.first_utc.empty()) report.first_utc = r.time_utc;
+    report.last_utc = r.time_utc;
+    Count(report.counts, r.inspection);
+    AddOnce(report.software_versions, r.software_version);
+    AddOnce(report.stations, r.station_id);
+    by_recipe[r.recipe_name].push_back(&r);
+  }
+  for (const auto& [name, list] : by_recipe) {
+    RecipeReport recipe;
+    recipe.name = name;
+    for (const StationRecord* r : list) {
+      Count(recipe.counts, r->inspection);
+      recipe.tolerance_mm = r->inspection.spec.tolerance_mm;
+      if (std::find(recipe.tolerances.begin(), recipe.tolerances.end(), recipe.tolerance_mm) == recipe.tolerances.end())
+        recipe.tolerances.push_back(recipe.tolerance_mm);
+      AddOnce(recipe.rigs, r->inspection.inputs.rig_sha256);
+      AddOnce(recipe.planes, r->inspection.inputs.plane_sha256);
+      if (r->inspection.measured) recipe.flatness_mm.push_back(r->inspection.values.flatness_mm);
+    }
+    FinishRecipe(recipe, list);
+    report.recipes.push_back(std::move(recipe));
+  }
+  return report;
+}
+
+}  // namespace flatscan

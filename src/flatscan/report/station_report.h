@@ -1,0 +1,69 @@
+#pragma once
+// `flatscan report`: what a supervisor reads about a period of a station's records, as one
+// self-contained HTML file (charts drawn here as inline SVG: no script, no external file,
+// nothing fetched; a factory PC has no internet).
+//
+// Per recipe in the records: the counts and the yield; the capability against the
+// recipe's tolerance (spc/spc.h: Cpu, Ppu) and the individuals chart of the flatness
+// values in time order with the Western Electric signals; a histogram against the
+// tolerance; the worst parts; the calibration files the records were measured with (their
+// hashes: a change of rig or plane is visible). Then the software versions and the exact
+// query, so that the report can be made again.
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "flatscan/spc/spc.h"
+#include "flatscan/store/station_record.h"
+
+namespace flatscan {
+
+struct RecordCounts {
+  int records = 0, measured = 0, pass = 0, fail = 0, marginal = 0, not_measured = 0;
+  // pass / measured (0 when nothing was measured); not-measured parts are not in it:
+  // they are shown apart, as the station neither passed nor failed them.
+  double Yield() const { return measured > 0 ? double(pass) / measured : 0.0; }
+};
+
+struct ReportedPart {
+  int64_t sequence = 0;
+  std::string time_utc, source_id;
+  double flatness_mm = 0;
+  std::string verdict;  // "pass", "fail" (with " (marginal)"), or "not measured: <reason>"
+};
+
+struct RecipeReport {
+  std::string name;
+  double tolerance_mm = 0;           // of the last record (a change is listed in `tolerances`)
+  std::vector<double> tolerances;    // every tolerance seen, in order of first use
+  RecordCounts counts;
+  std::vector<double> flatness_mm;   // measured parts, in sequence order
+  std::optional<UpperCapability> capability;  // with 2 measured parts or more
+  std::optional<IndividualsChart> chart;
+  std::vector<RuleSignal> signals;
+  std::vector<ReportedPart> worst;        // the highest flatness first (at most 10)
+  std::vector<ReportedPart> not_measured; // the latest first (at most 10)
+  std::vector<std::string> rigs, planes;  // SHA-256 of the files used, in order of first use
+};
+
+struct StationReport {
+  std::string query;          // the command that selects these records, as given
+  std::string generated_utc;
+  std::string first_utc, last_utc;  // of the records
+  RecordCounts counts;
+  std::vector<RecipeReport> recipes;  // by name
+  std::vector<std::string> software_versions, stations;
+};
+
+// The report of `records` (in sequence order); `recipe_name` non-empty keeps that recipe's only.
+StationReport SummariseRecords(const std::vector<StationRecord>& records, const std::string& recipe_name,
+                               const std::string& query);
+
+// The HTML page (UTF-8, one file).
+std::string RenderReportHtml(const StationReport& report);
+
+// Text with &, <, >, " and ' escaped for HTML.
+std::string HtmlEscape(const std::string& text);
+
+}  // namespace flatscan
