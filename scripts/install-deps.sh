@@ -17,6 +17,7 @@ PACKAGES=(
   libpq-dev postgresql                              # the plant store (store/postgres_results_store.cc); the server for its tests
   libaravis-dev libusb-1.0-0-dev aravis-tools       # GenICam cameras (acquisition/); aravis-0.8.pc needs libusb's .pc; the fake GigE camera
   iproute2 util-linux                               # `ip` and `unshare`: the two-GigE-camera tests in a private network namespace
+  libcpp-httplib-dev                                # the station's web page (outputs/http_server.cc)
   openssl                                           # self-signed certificates for the TLS tests (MQTT, PostgreSQL)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)

@@ -77,12 +77,13 @@ TEST(CamerasCommand, TestsAGigEVisionCameraByItsAddressOverLoopback) {
 
 // Two fake GigE Vision cameras need two addresses (each binds its GVCP port 3956), and
 // the tests must not change the machine's network: they run in a private network and
-// process namespace (`unshare --net --pid --fork --kill-child`, as root), whose own `lo`
+// process namespace (`unshare --net --pid --fork --kill-child --mount-proc`, as root; its
+// own /proc, without which LeakSanitizer cannot stop the threads it scans), whose own `lo`
 // gets 127.0.0.2. Everything in it, cameras included, ends when the namespace does.
 class TwoGigECameras : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (std::system("unshare --net --pid --fork --kill-child ip link set lo up >/dev/null 2>&1") != 0)
+    if (std::system("unshare --net --pid --fork --kill-child --mount-proc ip link set lo up >/dev/null 2>&1") != 0)
       GTEST_SKIP() << "a private network namespace needs root (unshare --net) and iproute2";
     dir_ = std::make_unique<testing::ScratchDir>("two_gige");
     const fs::path d = dir_->path();
@@ -114,7 +115,7 @@ class TwoGigECameras : public ::testing::Test {
         // One SIGTERM (`timeout` would signal its process group too: a second one ends the station at once).
         "(sleep {3}; kill -TERM $S) &\n{4}\nwait $S\n",
         d.string(), FLATSCAN_BINARY, right_options, seconds, during);
-    testing::BackgroundProcess run("unshare", {"--net", "--pid", "--fork", "--kill-child", "sh", (d / "run.sh").string()},
+    testing::BackgroundProcess run("unshare", {"--net", "--pid", "--fork", "--kill-child", "--mount-proc", "sh", (d / "run.sh").string()},
                                    d / "run.log");
     return run.Wait(seconds + 60);
   }
