@@ -20,6 +20,7 @@
 #include "flatscan/exe/cli.h"
 #include "flatscan/exe/commands.h"
 #include "flatscan/exe/number_checks.h"
+#include "flatscan/outputs/http_server.h"
 #include "flatscan/outputs/modbus_server.h"
 #include "flatscan/outputs/mqtt_publisher.h"
 #include "flatscan/outputs/plant_forwarder.h"
@@ -135,6 +136,19 @@ class StationCommand : public Command {
                      "plant-wide PostgreSQL store (postgresql://user@host:port/dbname; a password belongs in "
                      "~/.pgpass): every record is forwarded to it after the local store, catching up after an outage "
                      "(docs/line-outputs.md)");
+    sub_->add_option("--http", http_,
+                     "serve the station's web page and /api/summary on ADDR:PORT (or PORT: on 127.0.0.1); read-only "
+                     "unless --http-token-file (docs/web.md)");
+    sub_->add_option("--http-token-file", http_token_file_,
+                     "file whose first line is the token a recipe change over HTTP must carry (Authorization: Bearer)");
+    sub_->add_option("--http-max-rate", http_max_rate_,
+                     "requests per second the web server answers (beyond: 429), so that no client slows measuring")
+        ->default_val(http_max_rate_)
+        ->check(RealIn(1, 100000));
+    sub_->add_option("--shifts", shifts_,
+                     "local times at which shifts start (the station computer's time zone), for the page's shift "
+                     "counters")
+        ->default_val(shifts_);
     sub_->add_option("--status", status_, "status file (JSON, rewritten after every record; default: the store's "
                                           "name with .status.json)");
   }
@@ -144,6 +158,10 @@ class StationCommand : public Command {
     CheckStationId(station_id_);
     std::vector<LoadedRecipe> recipes;
     for (const std::string& r : recipes_) recipes.push_back(LoadRecipe(r));
+    const ShiftCalendar shifts = ShiftCalendar::Parse(shifts_, "--shifts");
+    const nlohmann::json calibration = CalibrationHealth(recipes);
+    std::vector<std::string> recipe_names;
+    for (const LoadedRecipe& r : recipes) recipe_names.push_back(r.recipe.name);
     Sources sources = MakeSources(recipes.front().recipe.camera);
     LogToFile(log_.empty() ? Beside(store_, ".log") : log_);
     std::unique_ptr<ResultsStore> store;
@@ -176,6 +194,8 @@ class StationCommand : public Command {
       if (sources.trigger) modbus->SetTrigger(sources.trigger);
       station.AddPublisher(modbus.get());
     }
+    const std::unique_ptr<StationHttpServer> http = MakeHttp(*store, station, recipe_names, sources.cameras, shifts, calibration);
+    if (http) station.AddPublisher(http.get());
     station.SetArchive(archive.get());
     std::optional<RateTrigger> rate;
     if (trigger_rate_hz_) rate.emplace(*trigger_rate_hz_, sources.trigger);
@@ -264,6 +284,76 @@ class StationCommand : public Command {
     return std::make_unique<ImageArchive>(archive_, quota_mb, retention_days);
   }
 
+  // The web page: its figures start from the whole store; parts are read through a second,
+  // read-only connection (SQLite lets it read while the station writes).
+  std::unique_ptr<StationHttpServer> MakeHttp(ResultsStore& store, InspectionStation& station,
+                                              const std::vector<std::string>& recipe_names,
+                                              const CameraPairSource* cameras, const ShiftCalendar& shifts,
+                                              const nlohmann::json& calibration) const {
+    if (http_.empty()) {
+      if (!http_token_file_.empty()) ThrowInputError("--http-token-file needs --http ADDR:PORT");
+      return nullptr;
+    }
+    HttpServerOptions o;
+    std::tie(o.address, o.port) = ParseHostPort(http_.find(':') == std::string::npos ? "127.0.0.1:" + http_ : http_,
+                                                "--http");
+    o.max_requests_per_s = http_max_rate_;
+    if (!http_token_file_.empty()) o.token = FirstLine(http_token_file_, "--http-token-file", "token");
+    LiveSummary summary(station_id_, shifts, std::chrono::system_clock::now());
+    store.ForEach({}, [&](const StationRecord& r) { summary.AddStored(r); });
+    StationHooks hooks;
+    ReadRecordsFrom(OpenSqliteStore(store_, false), hooks);
+    hooks.recipe_names = [recipe_names] { return recipe_names; };
+    hooks.set_active_recipe = [&station](size_t index) { station.SetActiveRecipe(index); };
+    hooks.health = [this, &station, recipe_names, cameras, calibration] {
+      nlohmann::json h = {{"active_recipe", recipe_names[station.ActiveRecipe()]},
+                          {"recipes", recipe_names},
+                          {"store", store_},
+                          {"software_version", FLATSCAN_VERSION},
+                          {"calibration", calibration},
+                          {"outputs", Outputs()}};
+      if (cameras)
+        h["cameras"] = {{"source", cameras->Name()},
+                        {"triggers", cameras->Triggers()},
+                        {"reconnections", cameras->Reconnections()}};
+      return h;
+    };
+    auto server = std::make_unique<StationHttpServer>(o, std::move(summary), std::move(hooks));
+    spdlog::info("web page on http://{}:{}/", o.address, server->Port());
+    return server;
+  }
+
+  // The outputs this station was started with (no secrets: no URI, no user).
+  nlohmann::json Outputs() const {
+    nlohmann::json o = nlohmann::json::object();
+    if (!mqtt_.empty()) o["mqtt"] = mqtt_;
+    if (!modbus_.empty()) o["modbus"] = modbus_;
+    if (!plant_store_.empty()) o["plant_store"] = "forwarding";
+    if (!archive_.empty()) o["archive"] = archive_;
+    return o;
+  }
+
+  // Per recipe: its rig and plane files, their SHA-256 and age (days since written).
+  static nlohmann::json CalibrationHealth(const std::vector<LoadedRecipe>& recipes) {
+    const auto age_days = [](const std::string& file) -> nlohmann::json {
+      std::error_code error;
+      const auto written = std::filesystem::last_write_time(file, error);
+      if (error) return nullptr;
+      const auto age = std::filesystem::file_time_type::clock::now() - written;
+      return std::round(std::chrono::duration<double, std::ratio<86400>>(age).count() * 10) / 10;
+    };
+    nlohmann::json list = nlohmann::json::array();
+    for (const LoadedRecipe& r : recipes)
+      list.push_back({{"recipe", r.recipe.name},
+                      {"rig", r.inputs.rig_file},
+                      {"rig_sha256", r.inputs.rig_sha256},
+                      {"rig_age_days", age_days(r.inputs.rig_file)},
+                      {"plane", r.inputs.plane_file},
+                      {"plane_sha256", r.inputs.plane_sha256},
+                      {"plane_age_days", age_days(r.inputs.plane_file)}});
+    return list;
+  }
+
   std::unique_ptr<MqttPublisher> MakeMqtt(ResultsStore& store) const {
     if (mqtt_.empty()) {
       if (!mqtt_user_.empty() || !mqtt_password_file_.empty() || !mqtt_tls_ca_.empty())
@@ -276,7 +366,7 @@ class StationCommand : public Command {
     std::tie(o.host, o.port) = ParseHostPort(mqtt_, "--mqtt");
     o.station_id = station_id_;
     o.username = mqtt_user_;
-    if (!mqtt_password_file_.empty()) o.password = FirstLine(mqtt_password_file_, "--mqtt-password-file");
+    if (!mqtt_password_file_.empty()) o.password = FirstLine(mqtt_password_file_, "--mqtt-password-file", "password");
     o.tls_ca_file = mqtt_tls_ca_;
     o.cursor_file = Beside(store_, ".mqtt.json");
     o.store_path = store_;  // at most 10,000 records wait in memory; the rest in the store
@@ -298,11 +388,11 @@ class StationCommand : public Command {
   }
 
   // The first line of a secret's file, without its line end.
-  static std::string FirstLine(const std::string& file, const char* option) {
+  static std::string FirstLine(const std::string& file, const char* option, const char* what) {
     std::ifstream in(file);
     std::string line;
     if (!in || !std::getline(in, line) || line.empty())
-      ThrowInputError("{} '{}': expected a readable file whose first line is the password", option, file);
+      ThrowInputError("{} '{}': expected a readable file whose first line is the {}", option, file, what);
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return line;
   }
@@ -327,6 +417,8 @@ class StationCommand : public Command {
   std::string source_, store_, station_id_, log_, status_, archive_;
   std::string mqtt_, mqtt_user_, mqtt_password_file_, mqtt_tls_ca_, modbus_, plant_store_, trigger_;
   std::string pixel_format_ = "Mono8", skew_clock_ = "host";
+  std::string http_, http_token_file_, shifts_ = "06:00,14:00,22:00";
+  double http_max_rate_ = HttpServerOptions{}.max_requests_per_s;
   std::optional<double> until_idle_s_, trigger_rate_hz_;
   int frame_timeout_ms_ = 1000, max_skew_ms_ = 20, not_ready_after_ = StationOptions{}.not_ready_after;
   double half_pair_timeout_s_ = 10;

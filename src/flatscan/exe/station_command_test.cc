@@ -5,6 +5,7 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <string>
@@ -587,6 +588,85 @@ TEST_F(StationCommand, ForwardsEveryRecordToThePlantStore) {
             std::string::npos)
       << bad.err;
   EXPECT_EQ(bad.err.find("plant-s3cret"), std::string::npos) << bad.err;
+}
+
+}  // namespace
+}  // namespace flatscan
+
+namespace flatscan {
+namespace {
+
+// The page in Chromium (headless; virtual time lets its first poll of /api/summary finish)
+// as the DOM it built; with `screenshot`, also a PNG of it.
+std::string BrowserDom(int port, const fs::path& out, const std::string& screenshot = "") {
+  const std::string common = fmt::format(
+      "timeout 90 chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --virtual-time-budget=2500 "
+      "--window-size=1100,900 --user-data-dir={} ",
+      (out.parent_path() / "chromium-profile").string());
+  const std::string url = fmt::format("http://127.0.0.1:{}/", port);
+  if (!screenshot.empty()) {
+    EXPECT_EQ(std::system((common + "--screenshot=" + screenshot + " " + url + " >/dev/null 2>&1").c_str()), 0);
+  }
+  EXPECT_EQ(std::system((common + "--dump-dom " + url + " >" + out.string() + " 2>/dev/null").c_str()), 0);
+  return testing::ReadFileBytes(out);
+}
+
+// measured, pass, fail, marginal, not measured: the page's "whole store" row.
+std::vector<int> StoreRow(const std::string& dom) {
+  static const std::regex row(
+      R"re(<tr id="c-store"><th>whole store</th><td>(\d+)</td><td>(\d+)</td><td>(\d+)</td><td>(\d+)</td><td>(\d+)</td>)re");
+  std::smatch m;
+  if (!std::regex_search(dom, m, row)) return {};
+  return {std::stoi(m[1]), std::stoi(m[2]), std::stoi(m[3]), std::stoi(m[4]), std::stoi(m[5])};
+}
+
+std::vector<int> CountsOf(const std::vector<json>& records) {
+  std::vector<int> c(5, 0);
+  for (const json& r : records) {
+    if (!r["measured"].get<bool>()) {
+      ++c[4];
+      continue;
+    }
+    ++c[0];
+    ++c[r["verdict"] == "pass" ? 1 : 2];
+    c[3] += r["marginal"].get<bool>();
+  }
+  return c;
+}
+
+// --http in a real browser: the page of a station watching a folder shows the store's
+// counts and the last verdict, and follows when the next part arrives. With
+// FLATSCAN_SCREENSHOTS=DIR the test leaves its screenshot there (docs/images/).
+TEST_F(StationCommand, ItsWebPageInABrowserShowsTheStore) {
+  const fs::path in = Dir() / "web_in", store = Dir() / "web.db", status = Dir() / "web.status.json";
+  fs::create_directories(in);
+  const int port = testing::FreeLoopbackPort();
+  testing::BackgroundFlatscan station({"station", "--recipe", (Dir() / "shield.yml").string(), "--source",
+                                       "folder:" + in.string(), "--store", store.string(), "--http",
+                                       std::to_string(port), "--station-id", "line-7"},
+                                      Dir() / "web.log.txt");
+  ASSERT_TRUE(station.started());
+  ASSERT_TRUE(testing::WaitFor([&] { return Committed(status) == 0 && testing::LoopbackPortAccepts(port); }, 30));
+  DeliverPair(Dir() / "data", 0, in, "w0");
+  ASSERT_TRUE(testing::WaitFor([&] { return Committed(status) == 1; }, 60)) << testing::ReadFileBytes(Dir() / "web.log.txt");
+  std::string dom = BrowserDom(port, Dir() / "web1.html");
+  std::vector<json> records = Results("web.db");
+  EXPECT_EQ(StoreRow(dom), CountsOf(records)) << dom;
+  EXPECT_NE(dom.find("flatscan station line-7"), std::string::npos);
+  EXPECT_NE(dom.find(fmt::format("<div id=\"verdict\" class=\"{}\">{}", records[0]["verdict"].get<std::string>(),
+                                 records[0]["verdict"] == "pass" ? "PASS" : "FAIL")),
+            std::string::npos)
+      << dom;
+
+  DeliverPair(Dir() / "data", 1, in, "w1");  // the page follows
+  ASSERT_TRUE(testing::WaitFor([&] { return Committed(status) == 2; }, 60));
+  const char* shots = std::getenv("FLATSCAN_SCREENSHOTS");
+  dom = BrowserDom(port, Dir() / "web2.html", shots ? (fs::path(shots) / "station-page.png").string() : "");
+  records = Results("web.db");
+  EXPECT_EQ(StoreRow(dom), CountsOf(records)) << dom;
+  EXPECT_NE(dom.find("#2 w1 at " + records[1]["time_utc"].get<std::string>()), std::string::npos) << dom;
+  station.Signal(SIGTERM);
+  EXPECT_EQ(station.Wait(30), 0) << testing::ReadFileBytes(Dir() / "web.log.txt");
 }
 
 }  // namespace

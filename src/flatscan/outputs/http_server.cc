@@ -1,83 +1,109 @@
 #include "flatscan/outputs/http_server.h"
 
-#include <httplib.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
+#include <httplib.h>
+#include <openssl/crypto.h>
+
+#include <algorithm>
 #include <chrono>
 
+#include "flatscan/outputs/station_page.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
 namespace {
 
-// The page: plain HTML and a script that polls /api/summary (nothing loaded from elsewhere).
-constexpr const char* kPage = R"html(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>flatscan station</title>
-<style>body{font-family:sans-serif;margin:24px}#verdict{font-size:72px;font-weight:bold}
-.pass{color:#080}.fail{color:#c00}.none{color:#888}td,th{padding:4px 12px;text-align:left}</style></head>
-<body><h1 id="station">flatscan station</h1>
-<div id="verdict" class="none">-</div><div id="part"></div>
-<table><tr><th>measured</th><th>pass</th><th>fail</th><th>marginal</th><th>not measured</th><th>yield</th></tr>
-<tr><td id="measured">0</td><td id="pass">0</td><td id="fail">0</td><td id="marginal">0</td>
-<td id="not_measured">0</td><td id="yield">-</td></tr></table><p id="state"></p>
-<script>
-function show(s) {
-  document.getElementById('station').textContent = 'flatscan station ' + s.station_id;
-  for (const k of ['measured', 'pass', 'fail', 'marginal', 'not_measured'])
-    document.getElementById(k).textContent = s.counts[k];
-  document.getElementById('yield').textContent =
-      s.counts.measured ? (100 * s.counts.pass / s.counts.measured).toFixed(1) + '%' : '-';
-  document.getElementById('state').textContent = s.state === 'ready' ? '' : 'station not ready';
-  const v = document.getElementById('verdict'), p = document.getElementById('part');
-  if (!s.last) return;
-  const r = s.last;
-  v.textContent = r.measured ? r.verdict.toUpperCase() : 'NOT MEASURED';
-  v.className = r.measured ? r.verdict : 'none';
-  p.textContent = r.source_id + ': ' + (r.measured
-      ? 'flatness ' + r.flatness_mm.toFixed(4) + ' mm, tolerance ' + r.tolerance_mm.toFixed(3) + ' mm'
-      : r.error);
+constexpr int kWorkerThreads = 2;
+constexpr int kWorkerNice = 10;  // below measuring (nice 0): the line comes first
+constexpr size_t kDefaultListed = 100, kMaxListed = 1000;
+
+std::string JsonText(const nlohmann::json& j) {
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
-function poll() {
-  fetch('/api/summary').then(r => r.json()).then(show).catch(() => {}).finally(() => setTimeout(poll, 1000));
+
+void Reply(httplib::Response& res, int status, const std::string& text) {
+  res.status = status;
+  res.set_content(text + "\n", "text/plain");
 }
-poll();
-</script></body></html>
-)html";
+
+// A positive decimal sequence number, or nothing.
+std::optional<int64_t> ParseSequence(const std::string& text) {
+  if (text.empty() || text.size() > 18 || text.find_first_not_of("0123456789") != std::string::npos) return {};
+  const int64_t n = std::stoll(text);
+  return n > 0 ? std::optional<int64_t>(n) : std::nullopt;
+}
+
+// The token compared in constant time (OpenSSL's CRYPTO_memcmp): the time a wrong guess
+// takes does not tell how much of it was right.
+bool SameToken(const std::string& given, const std::string& expected) {
+  return given.size() == expected.size() && CRYPTO_memcmp(given.data(), expected.data(), given.size()) == 0;
+}
+
+// The calling thread at a lower priority (Linux: per thread), once.
+void LowerThisThreadsPriority() {
+  thread_local bool lowered = false;
+  if (lowered) return;
+  lowered = true;
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWorkerNice);
+}
 
 }  // namespace
 
-void SummaryCounts::Add(const StationRecord& record) {
-  const InspectionRecord& r = record.inspection;
-  if (!r.measured) {
-    ++not_measured;
-    return;
-  }
-  ++measured;
-  (r.judgement.pass() ? pass : fail) += 1;
-  marginal += r.judgement.marginal;
+void ReadRecordsFrom(std::unique_ptr<ResultsStore> reader, StationHooks& hooks) {
+  struct Reader {
+    std::mutex mutex;
+    std::unique_ptr<ResultsStore> store;
+  };
+  const auto shared = std::make_shared<Reader>();
+  shared->store = std::move(reader);
+  hooks.record = [shared](int64_t sequence) {
+    std::lock_guard lock(shared->mutex);
+    std::optional<StationRecord> found;
+    shared->store->ForEachAfter(sequence - 1, 1, [&](const StationRecord& r) {
+      if (r.sequence == sequence) found = r;
+    });
+    return found;
+  };
+  hooks.records = [shared](const TimeRange& range, size_t limit) {
+    std::lock_guard lock(shared->mutex);
+    std::vector<StationRecord> list;
+    struct Enough {};  // stops the store's scan at `limit` (its reader cleans up as it unwinds)
+    try {
+      shared->store->ForEach(range, [&](const StationRecord& r) {
+        list.push_back(r);
+        if (list.size() >= limit) throw Enough{};
+      });
+    } catch (const Enough&) {
+    }
+    return list;
+  };
 }
 
-StationHttpServer::StationHttpServer(const std::string& address, int port, std::string station_id,
-                                     SummaryCounts counts, std::optional<StationRecord> last)
+StationHttpServer::StationHttpServer(const HttpServerOptions& options, LiveSummary summary, StationHooks hooks)
     : server_(std::make_unique<httplib::Server>()),
-      station_id_(std::move(station_id)),
-      counts_(counts),
-      last_(std::move(last)) {
-  server_->Get("/", [](const httplib::Request&, httplib::Response& res) { res.set_content(kPage, "text/html"); });
-  server_->Get("/api/summary", [this](const httplib::Request&, httplib::Response& res) {
-    res.set_content(Summary().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), "application/json");
-  });
-  server_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-    if (res.status == 404)
-      res.set_content("not found: " + req.path + " (the station serves / and /api/summary)\n", "text/plain");
-  });
+      options_(options),
+      hooks_(std::move(hooks)),
+      summary_(std::move(summary)),
+      bucket_(options.max_requests_per_s),
+      bucket_time_(std::chrono::steady_clock::now()) {
+  server_->new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
+  server_->set_tcp_nodelay(true);  // a reply goes out at once, not after the client's delayed ACK (40 ms)
+  Route();
   // SO_REUSEADDR only: cpp-httplib also sets SO_REUSEPORT, with which a second station on
   // the same port would share it silently instead of being refused.
   server_->set_socket_options([](socket_t socket) {
     const int yes = 1;
     setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
   });
-  port_ = port == 0 ? server_->bind_to_any_port(address) : (server_->bind_to_port(address, port) ? port : -1);
-  if (port_ < 0) ThrowInputError("--http {}:{}: cannot listen there (in use, or not an address of this machine)", address, port);
+  const std::string& address = options.address;
+  port_ = options.port == 0 ? server_->bind_to_any_port(address)
+                            : (server_->bind_to_port(address, options.port) ? options.port : -1);
+  if (port_ < 0)
+    ThrowInputError("--http {}:{}: cannot listen there (in use, or not an address of this machine)", address,
+                    options.port);
   thread_ = std::thread([this] { server_->listen_after_bind(); });
   // A stop() before the listening loop runs would be lost (and the destructor's join wait
   // for ever): return once it runs.
@@ -89,28 +115,128 @@ StationHttpServer::~StationHttpServer() {
   if (thread_.joinable()) thread_.join();
 }
 
-nlohmann::json StationHttpServer::Summary() const {
+bool StationHttpServer::TakeToken() {
   std::lock_guard lock(mutex_);
-  return {{"station_id", station_id_},
-          {"state", ready_ ? "ready" : "not_ready"},
-          {"counts",
-           {{"measured", counts_.measured},
-            {"pass", counts_.pass},
-            {"fail", counts_.fail},
-            {"marginal", counts_.marginal},
-            {"not_measured", counts_.not_measured}}},
-          {"last", last_ ? StationRecordToJson(*last_) : nlohmann::json(nullptr)}};
+  const auto now = std::chrono::steady_clock::now();
+  const double rate = options_.max_requests_per_s;
+  bucket_ = std::min(rate, bucket_ + rate * std::chrono::duration<double>(now - bucket_time_).count());
+  bucket_time_ = now;
+  if (bucket_ < 1) return false;
+  bucket_ -= 1;
+  return true;
+}
+
+void StationHttpServer::Route() {
+  using httplib::Request;
+  using httplib::Response;
+  server_->set_pre_routing_handler([this](const Request&, Response& res) {
+    LowerThisThreadsPriority();
+    if (TakeToken()) return httplib::Server::HandlerResponse::Unhandled;
+    res.set_header("Retry-After", "1");
+    Reply(res, 429, fmt::format("too many requests: the station answers at most {:g} per second",
+                                options_.max_requests_per_s));
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  server_->Get("/", [](const Request&, Response& res) {
+    res.set_content(std::string(StationPageHtml()), "text/html; charset=utf-8");
+  });
+  server_->Get("/api/summary", [this](const Request&, Response& res) {
+    res.set_content(JsonText(Summary()), "application/json");
+  });
+  server_->Get("/api/trend.svg", [this](const Request&, Response& res) {
+    std::string svg;
+    {
+      std::lock_guard lock(mutex_);
+      svg = summary_.TrendSvg();
+    }
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(svg, "image/svg+xml");
+  });
+  server_->Get(R"(/api/parts/([^/]*))", [this](const Request& req, Response& res) {
+    const std::string text = req.matches[1];
+    const std::optional<int64_t> sequence = ParseSequence(text);
+    if (!sequence)
+      return Reply(res, 400, fmt::format("bad request: a part is named by its sequence number (/api/parts/17), "
+                                         "found '{}'",
+                                         text));
+    std::optional<StationRecord> record;
+    try {
+      if (hooks_.record) record = hooks_.record(*sequence);
+    } catch (const StoreError& e) {
+      return Reply(res, 503, std::string("the store cannot be read: ") + e.what());
+    }
+    if (!record) return Reply(res, 404, fmt::format("not found: the store has no part with sequence {}", *sequence));
+    res.set_content(JsonText(StationRecordToJson(*record)), "application/json");
+  });
+  server_->Get("/api/parts", [this](const Request& req, Response& res) {
+    TimeRange range;
+    size_t limit = kDefaultListed;
+    try {
+      for (const auto& [key, value] : req.params) {
+        if (key == "from") range.from = ParseUtcTime(value, "from");
+        else if (key == "to") range.to = ParseUtcTime(value, "to");
+        else if (key == "limit") {
+          const std::optional<int64_t> n = ParseSequence(value);
+          if (!n || *n > int64_t(kMaxListed))
+            ThrowInputError("limit: expected a whole number from 1 to {}, found '{}'", kMaxListed, value);
+          limit = size_t(*n);
+        } else {
+          ThrowInputError("unknown parameter '{}' (expected from, to, limit)", key);
+        }
+      }
+    } catch (const InputError& e) {
+      return Reply(res, 400, std::string("bad request: ") + e.what());
+    }
+    nlohmann::json list = nlohmann::json::array();
+    try {
+      if (hooks_.records)
+        for (const StationRecord& r : hooks_.records(range, limit)) list.push_back(StationRecordToJson(r));
+    } catch (const StoreError& e) {
+      return Reply(res, 503, std::string("the store cannot be read: ") + e.what());
+    }
+    res.set_content(JsonText(list), "application/json");
+  });
+  server_->Post("/api/recipe", [this](const Request& req, Response& res) {
+    if (options_.token.empty() || !hooks_.set_active_recipe || !hooks_.recipe_names)
+      return Reply(res, 403, "forbidden: this station is read-only (started without --http-token-file)");
+    const std::string bearer = req.get_header_value("Authorization");
+    if (bearer.rfind("Bearer ", 0) != 0 || !SameToken(bearer.substr(7), options_.token))
+      return Reply(res, 403, "forbidden: changing the recipe needs the station's token (Authorization: Bearer TOKEN)");
+    const nlohmann::json body = nlohmann::json::parse(req.body, nullptr, false);
+    if (!body.is_object() || !body.contains("recipe") || !body["recipe"].is_string())
+      return Reply(res, 400, R"(bad request: expected a JSON body {"recipe": NAME})");
+    const std::string name = body["recipe"];
+    const std::vector<std::string> names = hooks_.recipe_names();
+    const auto found = std::find(names.begin(), names.end(), name);
+    if (found == names.end())
+      return Reply(res, 404, fmt::format("not found: no recipe '{}' on this station (it has: {})", name,
+                                         fmt::join(names, ", ")));
+    hooks_.set_active_recipe(size_t(found - names.begin()));
+    res.set_content(JsonText({{"active_recipe", name}}), "application/json");
+  });
+  server_->set_error_handler([](const Request& req, Response& res) {
+    if (res.status == 404 && res.body.empty())
+      Reply(res, 404, "not found: " + req.path + " (the station serves /, /api/summary, /api/trend.svg, "
+                      "/api/parts and POST /api/recipe)");
+  });
+}
+
+nlohmann::json StationHttpServer::Summary() {
+  nlohmann::json health = hooks_.health ? hooks_.health() : nlohmann::json::object();
+  std::lock_guard lock(mutex_);
+  nlohmann::json s = summary_.ToJson(std::chrono::system_clock::now());
+  s["health"] = std::move(health);
+  return s;
 }
 
 void StationHttpServer::Publish(const StationRecord& record, const StationCounts&) {
   std::lock_guard lock(mutex_);
-  counts_.Add(record);
-  last_ = record;
+  summary_.AddNew(record, std::chrono::system_clock::now());
 }
 
-void StationHttpServer::Readiness(bool ready, const std::string&, const StationCounts&) {
+void StationHttpServer::Readiness(bool ready, const std::string& reason, const StationCounts&) {
   std::lock_guard lock(mutex_);
-  ready_ = ready;
+  summary_.SetReadiness(ready, reason);
 }
 
 }  // namespace flatscan

@@ -1,27 +1,47 @@
 #pragma once
 // The station's web page (`flatscan station --http ADDR:PORT`): a publisher that keeps the
-// figures a page shows and serves them over HTTP (cpp-httplib, Debian libcpp-httplib-dev),
-// read-only:
+// figures a page shows (live_summary.h) and serves them over HTTP (cpp-httplib, Debian
+// libcpp-httplib-dev). Everything the page needs is served here: no CDN, no internet.
 //
-//   GET /              one page that polls /api/summary every second: the last part's
-//                      verdict in large type, its flatness against the tolerance, the counters
-//   GET /api/summary   {"station_id", "state": "ready"|"not_ready", "counts": {"measured",
-//                      "pass", "fail", "marginal", "not_measured"}, "last": the last record
-//                      (the record schema, docs/station.md) or null}
-//   anything else      404 with a one-line reason
+//   GET  /                 the page; it polls /api/summary every second
+//   GET  /api/summary      {"station_id", "state": "ready"|"not_ready", "not_ready_reason",
+//                          "started_utc", "counts": {"measured", "pass", "fail", "marginal",
+//                          "not_measured"} over the whole store (so that they match it after
+//                          a restart), "yield" (pass / measured over the store, null before
+//                          the first), "since_start" and "shift": {"name", "start_utc",
+//                          "counts"} (counts with their "yield"), "rate_per_min", "last" (the
+//                          last record, the record schema of docs/station.md, or null),
+//                          "trend": {"flatness_mm": [the last 300], "tolerance_mm"},
+//                          "recent_problems": [the last 10 fails and not-measured parts,
+//                          latest first], "health": what the station reports (cameras,
+//                          store, outputs, calibration files, active recipe)}
+//   GET  /api/trend.svg    the trend as an individuals control chart (SVG)
+//   GET  /api/parts/N      the record with sequence N (404 when the store has none; 400
+//                          when N is not a sequence number)
+//   GET  /api/parts?from=T&to=T&limit=N   the records committed in [from, to) (ISO 8601
+//                          UTC), the first N (at most 1000, default 100) by sequence (400 on
+//                          a malformed query)
+//   POST /api/recipe       {"recipe": NAME} with "Authorization: Bearer TOKEN": makes NAME
+//                          the active recipe (403 without the token or when the station was
+//                          started without one: read-only; 404 for an unknown recipe)
+//   anything else          404 with a one-line reason
 //
-// The counts are over the whole store (taken from it at start, then counted as records are
-// committed), so that they match the store after a restart. Everything the page needs is
-// served by the station: no CDN (a factory floor has no internet).
+// Requests beyond max_requests_per_s (a token bucket over all clients) get 429 at once, and
+// the server's two worker threads run at a lower CPU priority (nice 10) than measuring: a
+// page left open, or a misbehaving client on the network, cannot slow the line.
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "flatscan/outputs/live_summary.h"
 #include "flatscan/station/inspection_station.h"
+#include "flatscan/store/results_store.h"
 
 namespace httplib {
 class Server;
@@ -29,36 +49,55 @@ class Server;
 
 namespace flatscan {
 
-// The counters of /api/summary.
-struct SummaryCounts {
-  int64_t measured = 0, pass = 0, fail = 0, marginal = 0, not_measured = 0;
-  void Add(const StationRecord& record);
+struct HttpServerOptions {
+  std::string address = "127.0.0.1";
+  int port = 0;                       // 0: a free one (StationHttpServer::Port())
+  std::string token;                  // empty: read-only
+  double max_requests_per_s = 200;    // the bucket's rate and (one second of) burst
 };
+
+// What the server asks of the station. Each may be empty (the feature is then absent).
+// Called from the server's threads: each must be thread-safe.
+struct StationHooks {
+  // The record with this sequence number, if the store has it (the store's own reader).
+  std::function<std::optional<StationRecord>(int64_t sequence)> record;
+  // The records in a time range, the first `limit` by sequence.
+  std::function<std::vector<StationRecord>(const TimeRange& range, size_t limit)> records;
+  std::function<std::vector<std::string>()> recipe_names;
+  std::function<void(size_t index)> set_active_recipe;
+  std::function<nlohmann::json()> health;
+};
+
+// Sets hooks.record and hooks.records to read `reader` (a store opened for reading, one
+// request at a time).
+void ReadRecordsFrom(std::unique_ptr<ResultsStore> reader, StationHooks& hooks);
 
 class StationHttpServer : public RecordPublisher {
  public:
-  // Listens on address:port (port 0: a free one, see Port()) from construction until
-  // destruction. `counts` and `last`: the store's so far. Throws InputError naming
-  // address:port when it cannot listen there.
-  StationHttpServer(const std::string& address, int port, std::string station_id, SummaryCounts counts,
-                    std::optional<StationRecord> last);
+  // Listens from construction until destruction. Throws InputError naming address:port
+  // when it cannot listen there.
+  StationHttpServer(const HttpServerOptions& options, LiveSummary summary, StationHooks hooks);
   ~StationHttpServer() override;
 
   int Port() const { return port_; }
-  nlohmann::json Summary() const;
+  nlohmann::json Summary();
 
   void Publish(const StationRecord& record, const StationCounts& counts) override;
   void Readiness(bool ready, const std::string& reason, const StationCounts& counts) override;
 
  private:
+  void Route();
+  bool TakeToken();
+
   std::unique_ptr<httplib::Server> server_;
   std::thread thread_;
   int port_ = 0;
-  std::string station_id_;
-  mutable std::mutex mutex_;
-  SummaryCounts counts_;
-  std::optional<StationRecord> last_;
-  bool ready_ = true;
+  HttpServerOptions options_;
+  StationHooks hooks_;
+  std::mutex mutex_;  // guards summary_ and the bucket
+  LiveSummary summary_;
+  double bucket_ = 0;
+  std::chrono::steady_clock::time_point bucket_time_;
 };
 
 }  // namespace flatscan

@@ -1,4 +1,5 @@
-// The station's web server on loopback, through cpp-httplib's client.
+// The station's web server on loopback, through cpp-httplib's client, with a real SQLite
+// store behind /api/parts.
 #include "flatscan/outputs/http_server.h"
 
 #include <httplib.h>
@@ -12,63 +13,176 @@
 namespace flatscan {
 namespace {
 
-nlohmann::json GetSummary(int port) {
+LiveSummary Summary(const std::string& station) {
+  return LiveSummary(station, ShiftCalendar::Parse("06:00,14:00,22:00", "--shifts"), std::chrono::system_clock::now());
+}
+
+struct Reply {
+  int status = 0;
+  std::string body, content_type;
+};
+
+Reply Get(int port, const std::string& path) {
   httplib::Client client("127.0.0.1", port);
   client.set_read_timeout(5, 0);
-  const auto res = client.Get("/api/summary");
-  EXPECT_TRUE(res);
+  const auto res = client.Get(path.c_str());
   if (!res) return {};
-  EXPECT_EQ(res->status, 200);
-  EXPECT_EQ(res->get_header_value("Content-Type"), "application/json");
-  return nlohmann::json::parse(res->body);
+  return {res->status, res->body, res->get_header_value("Content-Type")};
+}
+
+Reply PostRecipe(int port, const std::string& body, const std::string& token) {
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(5, 0);
+  httplib::Headers headers;
+  if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
+  const auto res = client.Post("/api/recipe", headers, body, "application/json");
+  if (!res) return {};
+  return {res->status, res->body, res->get_header_value("Content-Type")};
+}
+
+nlohmann::json GetSummary(int port) {
+  const Reply r = Get(port, "/api/summary");
+  EXPECT_EQ(r.status, 200);
+  EXPECT_EQ(r.content_type, "application/json");
+  return nlohmann::json::parse(r.body, nullptr, false);
 }
 
 TEST(StationHttpServer, ServesTheCountsAndTheLastRecordAsTheyAreCommitted) {
-  SummaryCounts start;
-  start.measured = 3;
-  start.pass = 2;
-  start.fail = 1;
-  start.not_measured = 1;
-  StationHttpServer server("127.0.0.1", 0, "line-1", start, std::nullopt);  // a free port
+  LiveSummary start = Summary("line-1");
+  for (int i = 1; i <= 4; ++i) start.AddStored(testing::TestRecord(fmt::format("old-{}", i), "a", i < 4 ? 0.05 : -1));
+  StationHooks hooks;
+  hooks.health = [] { return nlohmann::json{{"active_recipe", "shield"}}; };
+  StationHttpServer server({}, std::move(start), hooks);  // 127.0.0.1, a free port
   ASSERT_GT(server.Port(), 0);
   nlohmann::json s = GetSummary(server.Port());
   EXPECT_EQ(s["station_id"], "line-1");
   EXPECT_EQ(s["state"], "ready");
-  EXPECT_EQ(s["counts"], (nlohmann::json{{"measured", 3}, {"pass", 2}, {"fail", 1}, {"marginal", 0}, {"not_measured", 1}}));
-  EXPECT_TRUE(s["last"].is_null());
+  EXPECT_EQ(s["counts"], (nlohmann::json{{"measured", 3}, {"pass", 3}, {"fail", 0}, {"marginal", 0}, {"not_measured", 1}}));
+  EXPECT_EQ(s["last"]["source_id"], "old-4");
+  EXPECT_EQ(s["health"]["active_recipe"], "shield");
 
   StationRecord record = testing::TestRecord("part-9", std::string(64, 'a'), 0.15);  // tolerance 0.1: a fail
   record.sequence = 5;
   server.Publish(record, {});
   server.Publish(testing::TestRecord("part-10", std::string(64, 'b'), -1), {});  // not measured
-  server.Readiness(false, "cameras", {});
+  server.Readiness(false, "cameras: no frame", {});
   s = GetSummary(server.Port());
-  EXPECT_EQ(s["counts"]["fail"], 2);
+  EXPECT_EQ(s["counts"]["fail"], 1);
   EXPECT_EQ(s["counts"]["not_measured"], 2);
+  EXPECT_EQ(s["since_start"]["measured"], 1);
   EXPECT_EQ(s["state"], "not_ready");
+  EXPECT_EQ(s["not_ready_reason"], "cameras: no frame");
   EXPECT_EQ(s["last"]["source_id"], "part-10");
-  EXPECT_EQ(s["last"]["measured"], false);
   EXPECT_EQ(StationRecordFromJson(s["last"]).inspection.error, "no part in the images");
+  EXPECT_EQ(s["recent_problems"][1]["source_id"], "part-9");
 
+  const Reply page = Get(server.Port(), "/");
+  EXPECT_EQ(page.status, 200);
+  EXPECT_NE(page.body.find("fetch('/api/summary')"), std::string::npos);
+  for (const char* external : {"src=\"http", "href=", "src='http", "//cdn"})
+    EXPECT_EQ(page.body.find(external), std::string::npos) << external;  // nothing from elsewhere
+  const Reply trend = Get(server.Port(), "/api/trend.svg");
+  EXPECT_EQ(trend.status, 200);
+  EXPECT_EQ(trend.content_type, "image/svg+xml");
+  EXPECT_NE(trend.body.find("polyline"), std::string::npos);  // 4 measured values
+}
+
+// Bad requests get their status and a reason; the records come from the store itself.
+TEST(StationHttpServer, AnswersBadRequestsClearly) {
+  testing::ScratchDir dir("http");
+  auto store = OpenSqliteStore((dir.path() / "s.db").string(), true);
+  for (int i = 1; i <= 3; ++i) {
+    StationRecord r = testing::TestRecord(fmt::format("p{}", i), std::string(64, 'a' + i), 0.05);
+    store->Commit(r);
+  }
+  StationHooks hooks;
+  ReadRecordsFrom(OpenSqliteStore((dir.path() / "s.db").string(), false), hooks);
+  StationHttpServer server({}, Summary("s"), hooks);
+  const int port = server.Port();
+  const Reply part = Get(port, "/api/parts/2");
+  EXPECT_EQ(part.status, 200);
+  EXPECT_EQ(nlohmann::json::parse(part.body)["source_id"], "p2");
+  EXPECT_EQ(Get(port, "/api/parts/9").body, "not found: the store has no part with sequence 9\n");
+  EXPECT_EQ(Get(port, "/api/parts/9").status, 404);
+  const Reply malformed = Get(port, "/api/parts/x1");
+  EXPECT_EQ(malformed.status, 400);
+  EXPECT_EQ(malformed.body, "bad request: a part is named by its sequence number (/api/parts/17), found 'x1'\n");
+  EXPECT_EQ(nlohmann::json::parse(Get(port, "/api/parts?limit=2").body).size(), 2u);
+  EXPECT_EQ(nlohmann::json::parse(Get(port, "/api/parts?from=2000-01-01&to=2999-01-01").body).size(), 3u);
+  EXPECT_EQ(nlohmann::json::parse(Get(port, "/api/parts?to=2000-01-01").body).size(), 0u);
+  const Reply bad_time = Get(port, "/api/parts?from=yesterday");
+  EXPECT_EQ(bad_time.status, 400);
+  EXPECT_EQ(bad_time.body,
+            "bad request: from: expected a UTC time in ISO 8601 (2026-12-04, 2026-12-04T17:03, "
+            "2026-12-04T17:03:12.345Z), found 'yesterday'\n");
+  EXPECT_EQ(Get(port, "/api/parts?limit=5000").body,
+            "bad request: limit: expected a whole number from 1 to 1000, found '5000'\n");
+  EXPECT_EQ(Get(port, "/api/parts?sort=x").status, 400);
+  const Reply missing = Get(port, "/part/123");
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_EQ(missing.body, "not found: /part/123 (the station serves /, /api/summary, /api/trend.svg, /api/parts and "
+                          "POST /api/recipe)\n");
+  // Read-only: without a token set at start, a recipe change is refused.
+  const Reply read_only = PostRecipe(port, R"({"recipe": "a"})", "guess");
+  EXPECT_EQ(read_only.status, 403);
+  EXPECT_EQ(read_only.body, "forbidden: this station is read-only (started without --http-token-file)\n");
+}
+
+TEST(StationHttpServer, ChangesTheRecipeOnlyWithTheToken) {
+  std::atomic<int> active{0};
+  StationHooks hooks;
+  hooks.recipe_names = [] { return std::vector<std::string>{"shield", "cover"}; };
+  hooks.set_active_recipe = [&](size_t i) { active = int(i); };
+  HttpServerOptions options;
+  options.token = "s3cret-token";
+  StationHttpServer server(options, Summary("s"), hooks);
+  const int port = server.Port();
+  EXPECT_EQ(PostRecipe(port, R"({"recipe": "cover"})", "").status, 403);
+  const Reply wrong = PostRecipe(port, R"({"recipe": "cover"})", "s3cret-tokem");
+  EXPECT_EQ(wrong.status, 403);
+  EXPECT_EQ(wrong.body, "forbidden: changing the recipe needs the station's token (Authorization: Bearer TOKEN)\n");
+  EXPECT_EQ(active, 0);
+  const Reply malformed = PostRecipe(port, "cover", "s3cret-token");
+  EXPECT_EQ(malformed.status, 400);
+  EXPECT_EQ(malformed.body, "bad request: expected a JSON body {\"recipe\": NAME}\n");
+  const Reply unknown = PostRecipe(port, R"({"recipe": "lid"})", "s3cret-token");
+  EXPECT_EQ(unknown.status, 404);
+  EXPECT_EQ(unknown.body, "not found: no recipe 'lid' on this station (it has: shield, cover)\n");
+  const Reply ok = PostRecipe(port, R"({"recipe": "cover"})", "s3cret-token");
+  EXPECT_EQ(ok.status, 200);
+  EXPECT_EQ(nlohmann::json::parse(ok.body)["active_recipe"], "cover");
+  EXPECT_EQ(active, 1);
+}
+
+// Beyond its rate the server answers 429 at once; a second later it answers again.
+TEST(StationHttpServer, RateLimitsItsClients) {
+  HttpServerOptions options;
+  options.max_requests_per_s = 20;
+  StationHttpServer server(options, Summary("s"), {});
   httplib::Client client("127.0.0.1", server.Port());
-  const auto page = client.Get("/");
-  ASSERT_TRUE(page);
-  EXPECT_EQ(page->status, 200);
-  EXPECT_NE(page->body.find("fetch('/api/summary')"), std::string::npos);
-  for (const char* external : {"src=", "href=", "http://", "https://"})
-    EXPECT_EQ(page->body.find(external), std::string::npos) << external;  // nothing from elsewhere
-  const auto missing = client.Get("/part/123");
-  ASSERT_TRUE(missing);
-  EXPECT_EQ(missing->status, 404);
-  EXPECT_EQ(missing->body, "not found: /part/123 (the station serves / and /api/summary)\n");
-  const auto post = client.Post("/api/summary", "{}", "application/json");
-  ASSERT_TRUE(post);
-  EXPECT_EQ(post->status, 404);  // read-only
+  client.set_keep_alive(true);
+  client.set_tcp_nodelay(true);
+  int ok = 0, limited = 0;
+  std::string limited_body;
+  for (int i = 0; i < 60; ++i) {
+    const auto res = client.Get("/api/summary");
+    ASSERT_TRUE(res);
+    if (res->status == 200) ++ok;
+    if (res->status == 429) ++limited, limited_body = res->body;
+  }
+  EXPECT_GE(ok, 20);
+  EXPECT_LE(ok, 35);  // the burst plus what refilled while the loop ran
+  EXPECT_EQ(ok + limited, 60);
+  EXPECT_EQ(limited_body, "too many requests: the station answers at most 20 per second\n");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  EXPECT_EQ(client.Get("/api/summary")->status, 200);
 }
 
 TEST(StationHttpServer, APortInUseIsNamed) {
-  StationHttpServer first("127.0.0.1", 0, "a", {}, std::nullopt);
-  EXPECT_EQ(testing::InputErrorOf([&] { StationHttpServer second("127.0.0.1", first.Port(), "b", {}, std::nullopt); }),
+  StationHttpServer first({}, Summary("a"), {});
+  HttpServerOptions second_options;
+  second_options.port = first.Port();
+  EXPECT_EQ(testing::InputErrorOf([&] { StationHttpServer second(second_options, Summary("b"), {}); }),
             fmt::format("--http 127.0.0.1:{}: cannot listen there (in use, or not an address of this machine)",
                         first.Port()));
 }

@@ -1,0 +1,196 @@
+#include "flatscan/outputs/live_summary.h"
+
+#include <time.h>
+
+#include <regex>
+
+#include <fmt/chrono.h>
+
+#include "flatscan/report/svg_chart.h"
+#include "flatscan/spc/spc.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+using std::chrono::system_clock;
+
+nlohmann::json WithYield(const SummaryCounts& counts) {
+  nlohmann::json j = counts.ToJson();
+  j["yield"] = counts.measured > 0 ? nlohmann::json(double(counts.pass) / counts.measured) : nlohmann::json(nullptr);
+  return j;
+}
+
+// A fail or a not-measured part as the page lists it.
+nlohmann::json Problem(const StationRecord& record) {
+  const InspectionRecord& r = record.inspection;
+  nlohmann::json archive = nullptr;
+  if (!record.archive.left.empty()) archive = {{"left", record.archive.left}, {"right", record.archive.right}};
+  return {{"sequence", record.sequence},
+          {"time_utc", record.time_utc},
+          {"source_id", record.source_id},
+          {"verdict", r.measured ? "fail" : "not measured"},
+          {"flatness_mm", r.measured ? nlohmann::json(r.values.flatness_mm) : nlohmann::json(nullptr)},
+          {"reason", r.measured ? fmt::format("flatness {:.4f} mm over the tolerance {:.3f} mm", r.values.flatness_mm,
+                                              r.spec.tolerance_mm)
+                                : r.error},
+          {"archive", archive}};
+}
+
+std::string HourMinute(int minutes) { return fmt::format("{:02d}:{:02d}", minutes / 60, minutes % 60); }
+
+}  // namespace
+
+void SummaryCounts::Add(const StationRecord& record) {
+  const InspectionRecord& r = record.inspection;
+  if (!r.measured) {
+    ++not_measured;
+    return;
+  }
+  ++measured;
+  (r.judgement.pass() ? pass : fail) += 1;
+  marginal += r.judgement.marginal;
+}
+
+nlohmann::json SummaryCounts::ToJson() const {
+  return {{"measured", measured}, {"pass", pass}, {"fail", fail}, {"marginal", marginal}, {"not_measured", not_measured}};
+}
+
+ShiftCalendar ShiftCalendar::Parse(const std::string& text, const std::string& what) {
+  static const std::regex one(R"(([01]\d|2[0-3]):([0-5]\d))");
+  ShiftCalendar calendar;
+  size_t at = 0;
+  while (at <= text.size()) {
+    const size_t comma = std::min(text.find(',', at), text.size());
+    const std::string item = text.substr(at, comma - at);
+    std::smatch m;
+    if (!std::regex_match(item, m, one))
+      ThrowInputError("{} '{}': expected local start times HH:MM,HH:MM,... (for example 06:00,14:00,22:00)", what,
+                      text);
+    const int minutes = std::stoi(m[1]) * 60 + std::stoi(m[2]);
+    if (!calendar.start_minutes_.empty() && minutes <= calendar.start_minutes_.back())
+      ThrowInputError("{} '{}': the start times must increase through the day", what, text);
+    calendar.start_minutes_.push_back(minutes);
+    at = comma + 1;
+  }
+  return calendar;
+}
+
+SystemTime ShiftCalendar::ShiftStart(SystemTime now) const {
+  const time_t t = system_clock::to_time_t(now);
+  tm local{};
+  localtime_r(&t, &local);
+  const int minute_of_day = local.tm_hour * 60 + local.tm_min;
+  int start = start_minutes_.back();
+  bool yesterday = true;
+  for (const int m : start_minutes_)
+    if (m <= minute_of_day) start = m, yesterday = false;
+  tm begin = local;
+  begin.tm_mday -= yesterday;  // mktime normalises the day before the 1st
+  begin.tm_hour = start / 60;
+  begin.tm_min = start % 60;
+  begin.tm_sec = 0;
+  begin.tm_isdst = -1;  // as the clock on the wall shows it then
+  return system_clock::from_time_t(mktime(&begin));
+}
+
+std::string ShiftCalendar::ShiftName(SystemTime now) const {
+  const time_t t = system_clock::to_time_t(ShiftStart(now));
+  tm local{};
+  localtime_r(&t, &local);
+  const int start = local.tm_hour * 60 + local.tm_min;
+  int end = start_minutes_.front();
+  for (const int m : start_minutes_)
+    if (m > start) {
+      end = m;
+      break;
+    }
+  return HourMinute(start) + "-" + HourMinute(end);
+}
+
+std::string FormatUtc(SystemTime time) {
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(time.time_since_epoch()).count() % 1000;
+  return fmt::format("{:%Y-%m-%dT%H:%M:%S}.{:03d}Z", fmt::gmtime(system_clock::to_time_t(time)), ms);
+}
+
+LiveSummary::LiveSummary(std::string station_id, ShiftCalendar shifts, SystemTime started, size_t trend_length,
+                         size_t problems)
+    : station_id_(std::move(station_id)),
+      shifts_(std::move(shifts)),
+      started_(started),
+      trend_length_(trend_length),
+      problems_length_(problems) {
+  RollShift(started);
+}
+
+void LiveSummary::RollShift(SystemTime now) {
+  const SystemTime start = shifts_.ShiftStart(now);
+  if (start == shift_start_) return;
+  shift_start_ = start;
+  shift_start_utc_ = FormatUtc(start);
+  shift_ = {};
+}
+
+void LiveSummary::Remember(const StationRecord& record) {
+  store_.Add(record);
+  const InspectionRecord& r = record.inspection;
+  if (r.measured) {
+    trend_.push_back(r.values.flatness_mm);
+    if (trend_.size() > trend_length_) trend_.pop_front();
+    tolerance_mm_ = r.spec.tolerance_mm;
+  }
+  if (!r.measured || !r.judgement.pass()) {
+    problems_.push_front(Problem(record));
+    if (problems_.size() > problems_length_) problems_.pop_back();
+  }
+  last_ = record;
+}
+
+void LiveSummary::AddStored(const StationRecord& record) {
+  Remember(record);
+  if (record.time_utc >= shift_start_utc_) shift_.Add(record);  // the stored form compares as text
+}
+
+void LiveSummary::AddNew(const StationRecord& record, SystemTime now) {
+  RollShift(now);
+  Remember(record);
+  since_start_.Add(record);
+  shift_.Add(record);
+  recent_commits_.push_back(now);
+}
+
+void LiveSummary::SetReadiness(bool ready, const std::string& reason) {
+  ready_ = ready;
+  not_ready_reason_ = ready ? "" : reason;
+}
+
+nlohmann::json LiveSummary::ToJson(SystemTime now) {
+  RollShift(now);
+  while (!recent_commits_.empty() && recent_commits_.front() < now - std::chrono::minutes(1))
+    recent_commits_.pop_front();
+  nlohmann::json problems = nlohmann::json::array();
+  for (const nlohmann::json& p : problems_) problems.push_back(p);
+  return {{"station_id", station_id_},
+          {"state", ready_ ? "ready" : "not_ready"},
+          {"not_ready_reason", ready_ ? nlohmann::json(nullptr) : nlohmann::json(not_ready_reason_)},
+          {"started_utc", FormatUtc(started_)},
+          {"counts", store_.ToJson()},
+          {"yield", WithYield(store_)["yield"]},
+          {"since_start", WithYield(since_start_)},
+          {"shift", {{"name", shifts_.ShiftName(now)}, {"start_utc", shift_start_utc_}, {"counts", WithYield(shift_)}}},
+          {"rate_per_min", recent_commits_.size()},
+          {"last", last_ ? StationRecordToJson(*last_) : nlohmann::json(nullptr)},
+          {"trend", {{"flatness_mm", trend_}, {"tolerance_mm", tolerance_mm_}}},
+          {"recent_problems", problems}};
+}
+
+std::string LiveSummary::TrendSvg() const {
+  if (trend_.size() < 2)
+    return R"(<svg xmlns="http://www.w3.org/2000/svg" width="640" height="40"><text x="8" y="24">)"
+           "the trend starts at the second measured part</text></svg>";
+  const std::vector<double> values(trend_.begin(), trend_.end());
+  const IndividualsChart chart = ComputeIndividualsChart(values);
+  return ControlChartSvg(values, chart, tolerance_mm_, WesternElectricSignals(values, chart));
+}
+
+}  // namespace flatscan

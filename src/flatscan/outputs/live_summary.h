@@ -1,0 +1,88 @@
+#pragma once
+// What the station's web page shows (http_server.h), kept as records are committed: the
+// counters over the whole store, since the station started and in the current shift; the
+// last record; a trend of the last flatness values; the recent fails and not-measured
+// parts; the commit rate. Not thread-safe: the server guards it.
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "flatscan/store/station_record.h"
+
+namespace flatscan {
+
+using SystemTime = std::chrono::system_clock::time_point;
+
+// Records counted by outcome. Yield = pass / measured (not-measured parts are neither).
+struct SummaryCounts {
+  int64_t measured = 0, pass = 0, fail = 0, marginal = 0, not_measured = 0;
+  void Add(const StationRecord& record);
+  // {"measured", "pass", "fail", "marginal", "not_measured"}
+  nlohmann::json ToJson() const;
+};
+
+// Shifts: the local times of day at which one starts (a station option, --shifts
+// 06:00,14:00,22:00). Local time is the station computer's time zone (TZ), so that a shift
+// starts at 06:00 on the clock on the wall, summer time included.
+class ShiftCalendar {
+ public:
+  // "HH:MM[,HH:MM...]", strictly increasing; throws InputError naming `what` otherwise.
+  static ShiftCalendar Parse(const std::string& text, const std::string& what);
+  // The start of the shift `now` falls in (the last start at or before it, the day
+  // before's last one before the first start of the day).
+  SystemTime ShiftStart(SystemTime now) const;
+  // The shift's name: "06:00-14:00".
+  std::string ShiftName(SystemTime now) const;
+  const std::vector<int>& StartMinutes() const { return start_minutes_; }
+
+ private:
+  std::vector<int> start_minutes_;  // minutes after local midnight
+};
+
+// A time as the store writes it: "2026-12-04T17:03:12.345Z".
+std::string FormatUtc(SystemTime time);
+
+class LiveSummary {
+ public:
+  // `trend_length`: how many of the last flatness values the trend keeps; `problems`: how
+  // many recent fails and not-measured parts.
+  LiveSummary(std::string station_id, ShiftCalendar shifts, SystemTime started, size_t trend_length = 300,
+              size_t problems = 10);
+
+  // A record the store held before the station started (in sequence order).
+  void AddStored(const StationRecord& record);
+  // A record the station committed at `now`.
+  void AddNew(const StationRecord& record, SystemTime now);
+  void SetReadiness(bool ready, const std::string& reason);
+
+  // The figures of /api/summary at `now` (http_server.h lists the keys).
+  nlohmann::json ToJson(SystemTime now);
+  // The trend as an individuals chart (SVG) of the last values with the tolerance; a line
+  // of text while fewer than 2 parts were measured.
+  std::string TrendSvg() const;
+
+ private:
+  void Remember(const StationRecord& record);
+  void RollShift(SystemTime now);
+
+  std::string station_id_;
+  ShiftCalendar shifts_;
+  SystemTime started_, shift_start_;
+  std::string shift_start_utc_;
+  size_t trend_length_, problems_length_;
+  SummaryCounts store_, since_start_, shift_;
+  std::optional<StationRecord> last_;
+  std::deque<double> trend_;  // flatness of the last measured parts, mm
+  double tolerance_mm_ = 0;   // of the last measured part
+  std::deque<nlohmann::json> problems_;  // the latest first
+  std::deque<SystemTime> recent_commits_;
+  bool ready_ = true;
+  std::string not_ready_reason_;
+};
+
+}  // namespace flatscan
