@@ -55,6 +55,11 @@ void CheckStationId(const std::string& id) {
     ThrowInputError("--station-id '{}': expected 1-64 characters from [A-Za-z0-9_-]", id);
 }
 
+// A server's ADDR:PORT, or PORT alone: on 127.0.0.1 (loopback unless an address is given).
+std::pair<std::string, int> ServerAddress(const std::string& spec, const char* option) {
+  return ParseHostPort(spec.find(':') == std::string::npos ? "127.0.0.1:" + spec : spec, option);
+}
+
 // `store` with its extension replaced: results.db -> results.log.
 std::string Beside(const std::string& store, const char* extension) {
   return std::filesystem::path(store).replace_extension(extension).string();
@@ -159,7 +164,7 @@ class StationCommand : public Command {
     std::vector<LoadedRecipe> recipes;
     for (const std::string& r : recipes_) recipes.push_back(LoadRecipe(r));
     const ShiftCalendar shifts = ShiftCalendar::Parse(shifts_, "--shifts");
-    const nlohmann::json calibration = CalibrationHealth(recipes);
+    const nlohmann::json calibration = http_.empty() ? nlohmann::json() : CalibrationHealth(recipes);  // the page's
     std::vector<std::string> recipe_names;
     for (const LoadedRecipe& r : recipes) recipe_names.push_back(r.recipe.name);
     Sources sources = MakeSources(recipes.front().recipe.camera);
@@ -187,8 +192,7 @@ class StationCommand : public Command {
     if (plant) station.AddPublisher(plant.get());
     std::unique_ptr<ModbusServer> modbus;
     if (!modbus_.empty()) {
-      const auto [address, port] =
-          ParseHostPort(modbus_.find(':') == std::string::npos ? "127.0.0.1:" + modbus_ : modbus_, "--modbus");
+      const auto [address, port] = ServerAddress(modbus_, "--modbus");
       modbus = std::make_unique<ModbusServer>(address, port, recipes_.size(),
                                               [&station](size_t index) { station.SetActiveRecipe(index); });
       if (sources.trigger) modbus->SetTrigger(sources.trigger);
@@ -295,8 +299,7 @@ class StationCommand : public Command {
       return nullptr;
     }
     HttpServerOptions o;
-    std::tie(o.address, o.port) = ParseHostPort(http_.find(':') == std::string::npos ? "127.0.0.1:" + http_ : http_,
-                                                "--http");
+    std::tie(o.address, o.port) = ServerAddress(http_, "--http");
     o.max_requests_per_s = http_max_rate_;
     if (!http_token_file_.empty()) o.token = FirstLine(http_token_file_, "--http-token-file", "token");
     LiveSummary summary(station_id_, shifts, std::chrono::system_clock::now());

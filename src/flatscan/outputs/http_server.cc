@@ -29,8 +29,8 @@ void Reply(httplib::Response& res, int status, const std::string& text) {
   res.set_content(text + "\n", "text/plain");
 }
 
-// A positive decimal sequence number, or nothing.
-std::optional<int64_t> ParseSequence(const std::string& text) {
+// A positive decimal integer (a sequence number, a limit), or nothing.
+std::optional<int64_t> ParsePositiveInteger(const std::string& text) {
   if (text.empty() || text.size() > 18 || text.find_first_not_of("0123456789") != std::string::npos) return {};
   const int64_t n = std::stoll(text);
   return n > 0 ? std::optional<int64_t>(n) : std::nullopt;
@@ -116,7 +116,7 @@ StationHttpServer::~StationHttpServer() {
 }
 
 bool StationHttpServer::TakeToken() {
-  std::lock_guard lock(mutex_);
+  std::lock_guard lock(bucket_mutex_);
   const auto now = std::chrono::steady_clock::now();
   const double rate = options_.max_requests_per_s;
   bucket_ = std::min(rate, bucket_ + rate * std::chrono::duration<double>(now - bucket_time_).count());
@@ -154,7 +154,7 @@ void StationHttpServer::Route() {
   });
   server_->Get(R"(/api/parts/([^/]*))", [this](const Request& req, Response& res) {
     const std::string text = req.matches[1];
-    const std::optional<int64_t> sequence = ParseSequence(text);
+    const std::optional<int64_t> sequence = ParsePositiveInteger(text);
     if (!sequence)
       return Reply(res, 400, fmt::format("bad request: a part is named by its sequence number (/api/parts/17), "
                                          "found '{}'",
@@ -176,7 +176,7 @@ void StationHttpServer::Route() {
         if (key == "from") range.from = ParseUtcTime(value, "from");
         else if (key == "to") range.to = ParseUtcTime(value, "to");
         else if (key == "limit") {
-          const std::optional<int64_t> n = ParseSequence(value);
+          const std::optional<int64_t> n = ParsePositiveInteger(value);
           if (!n || *n > int64_t(kMaxListed))
             ThrowInputError("limit: expected a whole number from 1 to {}, found '{}'", kMaxListed, value);
           limit = size_t(*n);

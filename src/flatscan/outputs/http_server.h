@@ -94,8 +94,9 @@ class StationHttpServer : public RecordPublisher {
   int port_ = 0;
   HttpServerOptions options_;
   StationHooks hooks_;
-  std::mutex mutex_;  // guards summary_ and the bucket
+  std::mutex mutex_;  // guards summary_
   LiveSummary summary_;
+  std::mutex bucket_mutex_;  // apart: a flood of refused requests does not hold up Publish()
   double bucket_ = 0;
   std::chrono::steady_clock::time_point bucket_time_;
 };

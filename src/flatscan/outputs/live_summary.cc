@@ -15,9 +15,14 @@ namespace {
 
 using std::chrono::system_clock;
 
-nlohmann::json WithYield(const SummaryCounts& counts) {
-  nlohmann::json j = counts.ToJson();
-  j["yield"] = counts.measured > 0 ? nlohmann::json(double(counts.pass) / counts.measured) : nlohmann::json(nullptr);
+// Yield, null before the first measured part (the page shows "-" rather than 0 %).
+nlohmann::json YieldJson(const RecordCounts& counts) {
+  return counts.measured > 0 ? nlohmann::json(counts.Yield()) : nlohmann::json(nullptr);
+}
+
+nlohmann::json WithYield(const RecordCounts& counts) {
+  nlohmann::json j = CountsJson(counts);
+  j["yield"] = YieldJson(counts);
   return j;
 }
 
@@ -41,19 +46,9 @@ std::string HourMinute(int minutes) { return fmt::format("{:02d}:{:02d}", minute
 
 }  // namespace
 
-void SummaryCounts::Add(const StationRecord& record) {
-  const InspectionRecord& r = record.inspection;
-  if (!r.measured) {
-    ++not_measured;
-    return;
-  }
-  ++measured;
-  (r.judgement.pass() ? pass : fail) += 1;
-  marginal += r.judgement.marginal;
-}
-
-nlohmann::json SummaryCounts::ToJson() const {
-  return {{"measured", measured}, {"pass", pass}, {"fail", fail}, {"marginal", marginal}, {"not_measured", not_measured}};
+nlohmann::json CountsJson(const RecordCounts& c) {
+  return {{"measured", c.measured}, {"pass", c.pass}, {"fail", c.fail}, {"marginal", c.marginal},
+          {"not_measured", c.not_measured}};
 }
 
 ShiftCalendar ShiftCalendar::Parse(const std::string& text, const std::string& what) {
@@ -132,7 +127,7 @@ void LiveSummary::RollShift(SystemTime now) {
 }
 
 void LiveSummary::Remember(const StationRecord& record) {
-  store_.Add(record);
+  store_.Add(record.inspection);
   const InspectionRecord& r = record.inspection;
   if (r.measured) {
     trend_.push_back(r.values.flatness_mm);
@@ -148,14 +143,14 @@ void LiveSummary::Remember(const StationRecord& record) {
 
 void LiveSummary::AddStored(const StationRecord& record) {
   Remember(record);
-  if (record.time_utc >= shift_start_utc_) shift_.Add(record);  // the stored form compares as text
+  if (record.time_utc >= shift_start_utc_) shift_.Add(record.inspection);  // the stored form compares as text
 }
 
 void LiveSummary::AddNew(const StationRecord& record, SystemTime now) {
   RollShift(now);
   Remember(record);
-  since_start_.Add(record);
-  shift_.Add(record);
+  since_start_.Add(record.inspection);
+  shift_.Add(record.inspection);
   recent_commits_.push_back(now);
 }
 
@@ -174,8 +169,8 @@ nlohmann::json LiveSummary::ToJson(SystemTime now) {
           {"state", ready_ ? "ready" : "not_ready"},
           {"not_ready_reason", ready_ ? nlohmann::json(nullptr) : nlohmann::json(not_ready_reason_)},
           {"started_utc", FormatUtc(started_)},
-          {"counts", store_.ToJson()},
-          {"yield", WithYield(store_)["yield"]},
+          {"counts", CountsJson(store_)},
+          {"yield", YieldJson(store_)},
           {"since_start", WithYield(since_start_)},
           {"shift", {{"name", shifts_.ShiftName(now)}, {"start_utc", shift_start_utc_}, {"counts", WithYield(shift_)}}},
           {"rate_per_min", recent_commits_.size()},

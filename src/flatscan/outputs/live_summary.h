@@ -12,19 +12,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "flatscan/report/station_report.h"
 #include "flatscan/store/station_record.h"
 
 namespace flatscan {
 
 using SystemTime = std::chrono::system_clock::time_point;
 
-// Records counted by outcome. Yield = pass / measured (not-measured parts are neither).
-struct SummaryCounts {
-  int64_t measured = 0, pass = 0, fail = 0, marginal = 0, not_measured = 0;
-  void Add(const StationRecord& record);
-  // {"measured", "pass", "fail", "marginal", "not_measured"}
-  nlohmann::json ToJson() const;
-};
+// {"measured", "pass", "fail", "marginal", "not_measured"}: the counts /api/summary shows.
+nlohmann::json CountsJson(const RecordCounts& counts);
 
 // Shifts: the local times of day at which one starts (a station option, --shifts
 // 06:00,14:00,22:00). Local time is the station computer's time zone (TZ), so that a shift
@@ -75,7 +71,7 @@ class LiveSummary {
   SystemTime started_, shift_start_;
   std::string shift_start_utc_;
   size_t trend_length_, problems_length_;
-  SummaryCounts store_, since_start_, shift_;
+  RecordCounts store_, since_start_, shift_;
   std::optional<StationRecord> last_;
   std::deque<double> trend_;  // flatness of the last measured parts, mm
   double tolerance_mm_ = 0;   // of the last measured part

@@ -23,17 +23,6 @@ ReportedPart Part(const StationRecord& r) {
   return {r.sequence, r.time_utc, r.source_id, r.inspection.values.flatness_mm, VerdictText(r.inspection)};
 }
 
-void Count(RecordCounts& c, const InspectionRecord& r) {
-  ++c.records;
-  if (!r.measured) {
-    ++c.not_measured;
-    return;
-  }
-  ++c.measured;
-  (r.judgement.pass() ? c.pass : c.fail) += 1;
-  c.marginal += r.judgement.marginal;
-}
-
 void FinishRecipe(RecipeReport& recipe, const std::vector<const StationRecord*>& records) {
   std::vector<ReportedPart> measured;
   for (const StationRecord* r : records) {
@@ -54,6 +43,17 @@ void FinishRecipe(RecipeReport& recipe, const std::vector<const StationRecord*>&
 }
 
 }  // namespace
+
+void RecordCounts::Add(const InspectionRecord& r) {
+  ++records;
+  if (!r.measured) {
+    ++not_measured;
+    return;
+  }
+  ++measured;
+  (r.judgement.pass() ? pass : fail) += 1;
+  marginal += r.judgement.marginal;
+}
 
 std::string HtmlEscape(const std::string& text) {
   std::string out;
@@ -81,7 +81,7 @@ StationReport SummariseRecords(const std::vector<StationRecord>& records, const 
     if (!recipe_name.empty() && r.recipe_name != recipe_name) continue;
     if (report.first_utc.empty()) report.first_utc = r.time_utc;
     report.last_utc = r.time_utc;
-    Count(report.counts, r.inspection);
+    report.counts.Add(r.inspection);
     AddOnce(report.software_versions, r.software_version);
     AddOnce(report.stations, r.station_id);
     by_recipe[r.recipe_name].push_back(&r);
@@ -90,7 +90,7 @@ StationReport SummariseRecords(const std::vector<StationRecord>& records, const 
     RecipeReport recipe;
     recipe.name = name;
     for (const StationRecord* r : list) {
-      Count(recipe.counts, r->inspection);
+      recipe.counts.Add(r->inspection);
       recipe.tolerance_mm = r->inspection.spec.tolerance_mm;
       if (std::find(recipe.tolerances.begin(), recipe.tolerances.end(), recipe.tolerance_mm) == recipe.tolerances.end())
         recipe.tolerances.push_back(recipe.tolerance_mm);

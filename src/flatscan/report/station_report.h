@@ -19,8 +19,10 @@
 
 namespace flatscan {
 
+// Records counted by outcome (the report's tables and the station's web page).
 struct RecordCounts {
-  int records = 0, measured = 0, pass = 0, fail = 0, marginal = 0, not_measured = 0;
+  int64_t records = 0, measured = 0, pass = 0, fail = 0, marginal = 0, not_measured = 0;
+  void Add(const InspectionRecord& record);
   // pass / measured (0 when nothing was measured); not-measured parts are not in it:
   // they are shown apart, as the station neither passed nor failed them.
   double Yield() const { return measured > 0 ? double(pass) / measured : 0.0; }
