@@ -1,9 +1,11 @@
 // `flatscan report` on a real SQLite store.
+#include <cstdlib>
 #include <filesystem>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "flatscan/report/pdf_printer.h"
 #include "flatscan/store/results_store.h"
 #include "flatscan/store/store_test_util.h"
 #include "flatscan/util/test_util.h"
@@ -50,6 +52,64 @@ TEST(ReportCommand, WritesTheReportOfAStoreAndNamesWhatItCannotUse) {
   r = testing::RunFlatscan(fmt::format("report --store {0} -o {0}", store_path));  // onto its own input
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("is the input of --store"), std::string::npos) << r.err;
+}
+
+// A store of two recipes: five "shield" parts (one not measured), three "lid" parts.
+std::string TwoRecipeStore(const testing::ScratchDir& dir) {
+  const std::string path = (dir.path() / "results.db").string();
+  const auto store = OpenSqliteStore(path, true);
+  int k = 0;
+  for (const double flatness : {0.04, 0.05, -1.0, 0.045, 0.12, 0.02, 0.03, 0.025}) {
+    ++k;
+    StationRecord r = testing::TestRecord(fmt::format("p{}", k), std::string(64, 'a'), flatness);
+    if (k > 5) r.recipe_name = "lid";
+    EXPECT_TRUE(store->Commit(r));
+  }
+  return path;
+}
+
+// --pdf prints the report through headless Chromium: a page of summary, then each recipe
+// from the top of a page (it fits on one here). With FLATSCAN_SCREENSHOTS=DIR the test
+// leaves a screenshot of the report there (docs/images/).
+TEST(ReportCommand, PrintsThePdfThroughChromiumOnePagePerRecipe) {
+  testing::ScratchDir dir("report-pdf");
+  const std::string store = TwoRecipeStore(dir);
+  const fs::path html = dir.path() / "report.html", pdf = dir.path() / "report.pdf";
+  auto r = testing::RunFlatscan(fmt::format("report --store {} -o {} --pdf {}", store, html.string(), pdf.string()),
+                                180);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, fmt::format("wrote {}: 8 records, 7 measured, yield 85.7%\nwrote {}: 3 pages\n", html.string(),
+                               pdf.string()));
+  EXPECT_EQ(PdfPageCount(testing::ReadFileBytes(pdf)), 3);
+  EXPECT_EQ(PdfPageCount("<html>no pdf</html>"), 0);
+  if (const char* shots = std::getenv("FLATSCAN_SCREENSHOTS")) {
+    const std::string shot = (fs::path(shots) / "report.png").string();
+    EXPECT_EQ(std::system(fmt::format("timeout 90 chromium --headless --no-sandbox --disable-gpu --hide-scrollbars "
+                                      "--window-size=1000,1500 --user-data-dir={} --screenshot={} file://{} "
+                                      ">/dev/null 2>&1",
+                                      (dir.path() / "profile").string(), shot, html.string())
+                              .c_str()),
+              0);
+  }
+
+  // Chromium that cannot be started: exit 2, named, and neither file written.
+  const fs::path html2 = dir.path() / "second.html", pdf2 = dir.path() / "second.pdf";
+  r = testing::RunFlatscan(fmt::format("report --store {} -o {} --pdf {} --chromium /nonexistent/chromium", store,
+                                       html2.string(), pdf2.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--pdf '{}': cannot start '/nonexistent/chromium': No such file or directory "
+                                   "(install Debian's chromium)",
+                                   pdf2.string())),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(html2));
+  EXPECT_FALSE(fs::exists(pdf2));
+  // A program that runs and fails: its exit code and what it printed.
+  r = testing::RunFlatscan(fmt::format("report --store {} -o {} --pdf {} --chromium false", store, html2.string(),
+                                       pdf2.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("'false' printing the report failed (exit code 1)"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(html2));
 }
 
 }  // namespace

@@ -12,36 +12,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "flatscan/report/shift_calendar.h"
 #include "flatscan/report/station_report.h"
 #include "flatscan/store/station_record.h"
 
 namespace flatscan {
 
-using SystemTime = std::chrono::system_clock::time_point;
-
 // {"measured", "pass", "fail", "marginal", "not_measured"}: the counts /api/summary shows.
 nlohmann::json CountsJson(const RecordCounts& counts);
-
-// Shifts: the local times of day at which one starts (a station option, --shifts
-// 06:00,14:00,22:00). Local time is the station computer's time zone (TZ), so that a shift
-// starts at 06:00 on the clock on the wall, summer time included.
-class ShiftCalendar {
- public:
-  // "HH:MM[,HH:MM...]", strictly increasing; throws InputError naming `what` otherwise.
-  static ShiftCalendar Parse(const std::string& text, const std::string& what);
-  // The start of the shift `now` falls in (the last start at or before it, the day
-  // before's last one before the first start of the day).
-  SystemTime ShiftStart(SystemTime now) const;
-  // The shift's name: "06:00-14:00".
-  std::string ShiftName(SystemTime now) const;
-  const std::vector<int>& StartMinutes() const { return start_minutes_; }
-
- private:
-  std::vector<int> start_minutes_;  // minutes after local midnight
-};
-
-// A time as the store writes it: "2026-12-04T17:03:12.345Z".
-std::string FormatUtc(SystemTime time);
 
 class LiveSummary {
  public:

@@ -1,8 +1,5 @@
 #include "flatscan/outputs/live_summary.h"
 
-#include <cstdlib>
-#include <ctime>
-
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -14,55 +11,9 @@ namespace {
 
 using std::chrono::hours;
 using std::chrono::minutes;
+using testing::LocalTimeZone;
 
-// Sets TZ (a POSIX rule: no time-zone database needed) for one test.
-class LocalTimeZone {
- public:
-  explicit LocalTimeZone(const char* tz) {
-    if (const char* old = std::getenv("TZ")) old_ = old;
-    setenv("TZ", tz, 1);
-    tzset();
-  }
-  ~LocalTimeZone() {
-    if (old_) setenv("TZ", old_->c_str(), 1);
-    else unsetenv("TZ");
-    tzset();
-  }
-
- private:
-  std::optional<std::string> old_;
-};
-
-SystemTime Utc(const std::string& text) {
-  tm t{};
-  strptime(text.c_str(), "%Y-%m-%dT%H:%M:%S", &t);
-  return std::chrono::system_clock::from_time_t(timegm(&t));
-}
-
-TEST(ShiftCalendar, ParsesStartTimesAndNamesWhatIsWrong) {
-  EXPECT_EQ(ShiftCalendar::Parse("06:00,14:00,22:00", "--shifts").StartMinutes(), (std::vector<int>{360, 840, 1320}));
-  EXPECT_EQ(testing::InputErrorOf([] { ShiftCalendar::Parse("6:00,14:00", "--shifts"); }),
-            "--shifts '6:00,14:00': expected local start times HH:MM,HH:MM,... (for example 06:00,14:00,22:00)");
-  EXPECT_EQ(testing::InputErrorOf([] { ShiftCalendar::Parse("14:00,06:00", "--shifts"); }),
-            "--shifts '14:00,06:00': the start times must increase through the day");
-  EXPECT_NE(testing::InputErrorOf([] { ShiftCalendar::Parse("", "--shifts"); }), "");
-  EXPECT_NE(testing::InputErrorOf([] { ShiftCalendar::Parse("24:00", "--shifts"); }), "");
-}
-
-// Shifts start on the wall clock: in Central Europe 06:00 local is 05:00 UTC in winter and
-// 04:00 UTC in summer; before the day's first start the night shift began the day before.
-TEST(ShiftCalendar, ShiftsStartOnTheLocalWallClock) {
-  const LocalTimeZone cet("CET-1CEST,M3.5.0,M10.5.0/3");
-  const ShiftCalendar shifts = ShiftCalendar::Parse("06:00,14:00,22:00", "--shifts");
-  EXPECT_EQ(FormatUtc(shifts.ShiftStart(Utc("2026-12-04T05:30:00"))), "2026-12-04T05:00:00.000Z");
-  EXPECT_EQ(shifts.ShiftName(Utc("2026-12-04T05:30:00")), "06:00-14:00");
-  EXPECT_EQ(FormatUtc(shifts.ShiftStart(Utc("2026-07-04T04:30:00"))), "2026-07-04T04:00:00.000Z");
-  EXPECT_EQ(FormatUtc(shifts.ShiftStart(Utc("2026-12-01T02:00:00"))), "2026-11-30T21:00:00.000Z");  // 03:00 local
-  EXPECT_EQ(shifts.ShiftName(Utc("2026-12-01T02:00:00")), "22:00-06:00");
-  const ShiftCalendar day = ShiftCalendar::Parse("00:00", "--shifts");
-  EXPECT_EQ(FormatUtc(day.ShiftStart(Utc("2026-12-04T12:00:00"))), "2026-12-03T23:00:00.000Z");
-  EXPECT_EQ(day.ShiftName(Utc("2026-12-04T12:00:00")), "00:00-00:00");
-}
+SystemTime Utc(const std::string& text) { return ParseStoredUtc(text + "Z"); }
 
 StationRecord At(const std::string& id, double flatness_mm, const std::string& time_utc, int64_t sequence) {
   StationRecord r = testing::TestRecord(id, std::string(64, 'a'), flatness_mm);  // tolerance 0.1

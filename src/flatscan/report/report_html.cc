@@ -11,7 +11,12 @@ constexpr const char* kStyle =
     "body{font-family:sans-serif;margin:24px;color:#222}h1{font-size:22px}h2{font-size:18px;margin-top:28px}"
     "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
     "th{background:#f2f2f2}.num{text-align:right}.fail{color:#c00;font-weight:bold}.note{color:#555;font-size:12px}"
-    "code{background:#f4f4f4;padding:1px 4px}";
+    "code{background:#f4f4f4;padding:1px 4px}"
+    // Printed (--pdf): A4, each recipe from the top of a page, no table or chart cut in two.
+    // Smaller type and charts on paper: a recipe with a few listed parts fits one page (ten
+    // worst and ten not-measured parts take two).
+    "@page{size:A4;margin:12mm}@media print{body{margin:0;font-size:10pt}h2{margin-top:8px}td,th{padding:1px 5px}"
+    "svg{height:170px;width:auto}.recipe{break-before:page}table,svg{break-inside:avoid}}";
 
 std::string Row(const std::vector<std::string>& cells, bool header = false) {
   std::string out = "<tr>";
@@ -19,12 +24,30 @@ std::string Row(const std::vector<std::string>& cells, bool header = false) {
   return out + "</tr>\n";
 }
 
+std::string Percent(const RecordCounts& c) { return c.measured ? fmt::format("{:.1f}%", 100 * c.Yield()) : "-"; }
+
 std::string CountsTable(const RecordCounts& c) {
   return "<table>" + Row({"records", "measured", "pass", "fail", "marginal", "not measured", "yield"}, true) +
          Row({std::to_string(c.records), std::to_string(c.measured), std::to_string(c.pass),
               std::to_string(c.fail), std::to_string(c.marginal), std::to_string(c.not_measured),
-              c.measured ? fmt::format("{:.1f}%", 100 * c.Yield()) : "-"}) +
+              Percent(c)}) +
          "</table>\n";
+}
+
+// The per-day or per-shift table: one row per period and recipe.
+std::string PeriodsTable(const std::vector<PeriodReport>& rows, const char* period) {
+  std::string out = "<table>" + Row({period, "recipe", "records", "measured", "pass", "fail", "marginal",
+                                     "not measured", "yield", "Cpu", "Ppu"},
+                                    true);
+  for (const PeriodReport& p : rows) {
+    const RecordCounts& c = p.counts;
+    out += Row({HtmlEscape(p.period), HtmlEscape(p.recipe), std::to_string(c.records), std::to_string(c.measured),
+                std::to_string(c.pass), std::to_string(c.fail), std::to_string(c.marginal),
+                std::to_string(c.not_measured), Percent(c),
+                p.capability ? fmt::format("{:.2f}", p.capability->cpu) : "-",
+                p.capability ? fmt::format("{:.2f}", p.capability->ppu) : "-"});
+  }
+  return out + "</table>\n";
 }
 
 std::string PartsTable(const std::vector<ReportedPart>& parts, bool flatness) {
@@ -66,7 +89,7 @@ std::string Hashes(const std::vector<std::string>& hashes) {
 }
 
 std::string Recipe(const RecipeReport& r) {
-  std::string out = fmt::format("<h2>Recipe {}</h2>\n<p>Tolerance {:.3f} mm", HtmlEscape(r.name), r.tolerance_mm);
+  std::string out = fmt::format("<section class=\"recipe\"><h2>Recipe {}</h2>\n<p>Tolerance {:.3f} mm", HtmlEscape(r.name), r.tolerance_mm);
   if (r.tolerances.size() > 1) out += fmt::format(" (changed during the period: {} tolerances)", r.tolerances.size());
   out += "</p>\n" + CountsTable(r.counts) + Capability(r);
   out += "<h3>Worst parts</h3>\n" + (r.worst.empty() ? std::string("<p>none measured</p>\n") : PartsTable(r.worst, true));
@@ -75,7 +98,7 @@ std::string Recipe(const RecipeReport& r) {
                      Hashes(r.rigs), Hashes(r.planes));
   if (r.rigs.size() > 1 || r.planes.size() > 1)
     out += "<p class=\"fail\">The calibration changed during the period.</p>\n";
-  return out;
+  return out + "</section>\n";
 }
 
 }  // namespace
@@ -87,6 +110,10 @@ std::string RenderReportHtml(const StationReport& report) {
       kStyle, HtmlEscape(report.first_utc.empty() ? "-" : report.first_utc),
       HtmlEscape(report.last_utc.empty() ? "-" : report.last_utc), HtmlEscape(fmt::format("{}", fmt::join(report.stations, ", "))));
   out += "<h2>Summary</h2>\n" + CountsTable(report.counts);
+  out += "<h2>By day</h2>\n" + PeriodsTable(report.days, "day (local)");
+  out += "<h2>By shift</h2>\n" + PeriodsTable(report.shifts, "shift (local start day)");
+  out += "<p class=\"note\">Cpu and Ppu per period need two measured parts or more in it; days and shifts in the "
+         "station's local time (--shifts).</p>\n";
   for (const RecipeReport& r : report.recipes) out += Recipe(r);
   out += fmt::format("<h2>How this report was made</h2>\n<p>Query: <code>{}</code><br>Generated {} (UTC) by flatscan; "
                      "records measured by flatscan {}.</p>\n</body></html>\n",

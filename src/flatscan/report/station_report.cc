@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -42,6 +43,33 @@ void FinishRecipe(RecipeReport& recipe, const std::vector<const StationRecord*>&
   }
 }
 
+// Per (period, recipe): the records of a day or a shift, in time order.
+class PeriodTable {
+ public:
+  void Add(const std::string& period, const StationRecord& r) {
+    PeriodReport& p = rows_[{period, r.recipe_name}];
+    p.period = period;
+    p.recipe = r.recipe_name;
+    p.tolerance_mm = r.inspection.spec.tolerance_mm;
+    p.counts.Add(r.inspection);
+    if (r.inspection.measured) flatness_[{period, r.recipe_name}].push_back(r.inspection.values.flatness_mm);
+  }
+  std::vector<PeriodReport> Rows() const {
+    std::vector<PeriodReport> out;
+    for (const auto& [key, row] : rows_) {
+      out.push_back(row);
+      const auto values = flatness_.find(key);
+      if (values != flatness_.end() && values->second.size() >= 2)
+        out.back().capability = ComputeUpperCapability(values->second, row.tolerance_mm);
+    }
+    return out;
+  }
+
+ private:
+  std::map<std::pair<std::string, std::string>, PeriodReport> rows_;
+  std::map<std::pair<std::string, std::string>, std::vector<double>> flatness_;
+};
+
 }  // namespace
 
 void RecordCounts::Add(const InspectionRecord& r) {
@@ -72,8 +100,9 @@ std::string HtmlEscape(const std::string& text) {
 }
 
 StationReport SummariseRecords(const std::vector<StationRecord>& records, const std::string& recipe_name,
-                               const std::string& query) {
+                               const std::string& query, const ShiftCalendar& shifts) {
   StationReport report;
+  PeriodTable days, shift_table;
   report.query = query;
   report.generated_utc = UtcNowIso8601();
   std::map<std::string, std::vector<const StationRecord*>> by_recipe;
@@ -85,7 +114,17 @@ StationReport SummariseRecords(const std::vector<StationRecord>& records, const 
     AddOnce(report.software_versions, r.software_version);
     AddOnce(report.stations, r.station_id);
     by_recipe[r.recipe_name].push_back(&r);
+    SystemTime time;
+    try {
+      time = ParseStoredUtc(r.time_utc);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(fmt::format("record {}: time_utc {}", r.sequence, e.what()));
+    }
+    days.Add(LocalDay(time), r);
+    shift_table.Add(shifts.ShiftLabel(time), r);
   }
+  report.days = days.Rows();
+  report.shifts = shift_table.Rows();
   for (const auto& [name, list] : by_recipe) {
     RecipeReport recipe;
     recipe.name = name;

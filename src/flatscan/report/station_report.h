@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "flatscan/report/shift_calendar.h"
 #include "flatscan/spc/spc.h"
 #include "flatscan/store/station_record.h"
 
@@ -49,18 +50,30 @@ struct RecipeReport {
   std::vector<std::string> rigs, planes;  // SHA-256 of the files used, in order of first use
 };
 
+// One recipe over one day or one shift: the counts and, with 2 measured parts or more, the
+// capability against the tolerance of the period's last record.
+struct PeriodReport {
+  std::string period;  // "2026-12-04" or "2026-12-04 06:00-14:00" (local time)
+  std::string recipe;
+  double tolerance_mm = 0;
+  RecordCounts counts;
+  std::optional<UpperCapability> capability;
+};
+
 struct StationReport {
   std::string query;          // the command that selects these records, as given
   std::string generated_utc;
   std::string first_utc, last_utc;  // of the records
   RecordCounts counts;
   std::vector<RecipeReport> recipes;  // by name
+  std::vector<PeriodReport> days, shifts;  // in time order, then by recipe name
   std::vector<std::string> software_versions, stations;
 };
 
-// The report of `records` (in sequence order); `recipe_name` non-empty keeps that recipe's only.
+// The report of `records` (in sequence order); `recipe_name` non-empty keeps that recipe's
+// only; `shifts` sets the per-shift table's periods (days and shifts in local time).
 StationReport SummariseRecords(const std::vector<StationRecord>& records, const std::string& recipe_name,
-                               const std::string& query);
+                               const std::string& query, const ShiftCalendar& shifts);
 
 // The HTML page (UTF-8, one file).
 std::string RenderReportHtml(const StationReport& report);

@@ -30,7 +30,25 @@ TEST(Spc, CapabilityAndChartLimitsOfAWorkedExample) {
   EXPECT_NEAR(u.ppu, 0.08 / (3 * std::sqrt(0.00025)), 1e-9);  // 1.6865
 }
 
-// (USL - mean) / (3 sigma): USL 20, mean 16, sigma 2 give 0.667; the edge cases.
+// The published worked example of the NIST/SEMATECH e-Handbook, section 6.3.2.2
+// (individuals control charts): ten batches, mean 50.81, MRbar 1.8778, MR chart upper limit
+// 6.1347 (D4 MRbar), individuals chart limits 55.8041 and 45.8159 (the handbook rounds to 4
+// decimals).
+TEST(Spc, TheNistIndividualsChartExample) {
+  const std::vector<double> x = {49.6, 47.6, 49.9, 51.3, 47.8, 51.2, 52.6, 52.4, 53.6, 52.1};
+  const IndividualsChart c = ComputeIndividualsChart(x);
+  EXPECT_NEAR(c.centre, 50.81, 5e-5);
+  EXPECT_NEAR(c.mr_bar, 1.8778, 5e-5);
+  EXPECT_NEAR(c.mr_ucl, 6.1347, 5e-5);
+  EXPECT_NEAR(c.ucl, 55.8041, 5e-5);
+  EXPECT_NEAR(c.lcl, 45.8159, 5e-5);
+  // sigma 1.6647: no point beyond 2 sigma, at most 2 of any 5 beyond 1 sigma on a side, no
+  // run of 8: no rule fires.
+  EXPECT_TRUE(WesternElectricSignals(x, c).empty());
+}
+
+// (USL - mean) / (3 sigma): the NIST/SEMATECH e-Handbook's capability example (6.1.6: USL 20,
+// LSL 8, mean 16, sigma 2, Cpk = min(Cpu, Cpl) = 0.6667, from the upper side) and the edge cases.
 TEST(Spc, TheUpperIndexFormula) {
   EXPECT_NEAR(UpperCapabilityIndex(20, 16, 2), 2.0 / 3.0, 1e-12);
   EXPECT_TRUE(std::isinf(UpperCapabilityIndex(0.1, 0.05, 0)));  // every part the same

@@ -171,4 +171,16 @@ bool WaitFor(const std::function<bool()>& condition, double timeout_s) {
   return true;
 }
 
+LocalTimeZone::LocalTimeZone(const char* tz) {
+  if (const char* old = std::getenv("TZ")) old_ = old, had_old_ = true;
+  setenv("TZ", tz, 1);
+  tzset();
+}
+
+LocalTimeZone::~LocalTimeZone() {
+  if (had_old_) setenv("TZ", old_.c_str(), 1);
+  else unsetenv("TZ");
+  tzset();
+}
+
 }  // namespace flatscan::testing

@@ -75,4 +75,18 @@ std::string InputErrorOf(const std::function<void()>& f);
 // Reads a whole file as bytes.
 std::string ReadFileBytes(const std::filesystem::path& path);
 
+// Sets the local time zone (TZ, a POSIX rule such as "CET-1CEST,M3.5.0,M10.5.0/3": no
+// time-zone database needed) for as long as it lives.
+class LocalTimeZone {
+ public:
+  explicit LocalTimeZone(const char* tz);
+  ~LocalTimeZone();
+  LocalTimeZone(const LocalTimeZone&) = delete;
+  LocalTimeZone& operator=(const LocalTimeZone&) = delete;
+
+ private:
+  std::string old_;
+  bool had_old_ = false;
+};
+
 }  // namespace flatscan::testing
