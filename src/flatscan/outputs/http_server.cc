@@ -1,5 +1,6 @@
 #include "flatscan/outputs/http_server.h"
 
+#include <pthread.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -9,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 
 #include "flatscan/outputs/station_page.h"
 #include "flatscan/util/error.h"
@@ -43,12 +45,13 @@ bool SameToken(const std::string& given, const std::string& expected) {
 }
 
 // The calling thread at a lower priority (Linux: per thread), once.
-void LowerThisThreadsPriority() {
-  thread_local bool lowered = false;
-  if (lowered) return;
-  lowered = true;
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWorkerNice);
+double CpuSeconds(clockid_t clock) {
+  timespec t{};
+  if (clock_gettime(clock, &t) != 0) return 0;  // a thread that has ended
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
+
+double ThisThreadsCpuSeconds() { return CpuSeconds(CLOCK_THREAD_CPUTIME_ID); }
 
 }  // namespace
 
@@ -105,6 +108,8 @@ StationHttpServer::StationHttpServer(const HttpServerOptions& options, LiveSumma
     ThrowInputError("--http {}:{}: cannot listen there (in use, or not an address of this machine)", address,
                     options.port);
   thread_ = std::thread([this] { server_->listen_after_bind(); });
+  clockid_t listening{};
+  if (pthread_getcpuclockid(thread_.native_handle(), &listening) == 0) thread_clocks_.push_back(listening);
   // A stop() before the listening loop runs would be lost (and the destructor's join wait
   // for ever): return once it runs.
   while (!server_->is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -113,6 +118,25 @@ StationHttpServer::StationHttpServer(const HttpServerOptions& options, LiveSumma
 StationHttpServer::~StationHttpServer() {
   server_->stop();
   if (thread_.joinable()) thread_.join();
+}
+
+void StationHttpServer::JoinWorker() {
+  thread_local bool joined = false;  // a worker thread serves one server for its life
+  if (joined) return;
+  joined = true;
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kWorkerNice);
+  clockid_t clock{};
+  if (pthread_getcpuclockid(pthread_self(), &clock) != 0) return;
+  std::lock_guard lock(cpu_mutex_);
+  thread_clocks_.push_back(clock);
+}
+
+StationHttpServer::CpuUsed StationHttpServer::Cpu() {
+  CpuUsed used;
+  std::lock_guard lock(cpu_mutex_);
+  for (const clockid_t clock : thread_clocks_) used.serving_s += CpuSeconds(clock);
+  used.publishing_s = publishing_s_;
+  return used;
 }
 
 bool StationHttpServer::TakeToken() {
@@ -130,7 +154,7 @@ void StationHttpServer::Route() {
   using httplib::Request;
   using httplib::Response;
   server_->set_pre_routing_handler([this](const Request&, Response& res) {
-    LowerThisThreadsPriority();
+    JoinWorker();
     if (TakeToken()) return httplib::Server::HandlerResponse::Unhandled;
     res.set_header("Retry-After", "1");
     Reply(res, 429, fmt::format("too many requests: the station answers at most {:g} per second",
@@ -230,8 +254,13 @@ nlohmann::json StationHttpServer::Summary() {
 }
 
 void StationHttpServer::Publish(const StationRecord& record, const StationCounts&) {
-  std::lock_guard lock(mutex_);
-  summary_.AddNew(record, std::chrono::system_clock::now());
+  const double start = ThisThreadsCpuSeconds();
+  {
+    std::lock_guard lock(mutex_);
+    summary_.AddNew(record, std::chrono::system_clock::now());
+  }
+  std::lock_guard lock(cpu_mutex_);
+  publishing_s_ += ThisThreadsCpuSeconds() - start;
 }
 
 void StationHttpServer::Readiness(bool ready, const std::string& reason, const StationCounts&) {
