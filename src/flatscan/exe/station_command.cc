@@ -42,6 +42,7 @@ namespace {
 // info lines at 100 bytes per record and 20 000 records a day).
 constexpr size_t kLogFileBytes = 5 * 1024 * 1024;
 constexpr size_t kLogFiles = 3;
+constexpr int kThumbnailWidth = 480;  // pixels: the page shows the last part at 320 and problems at 120 (sharp on a dense screen)
 
 std::string HostStationId() {
   char host[256] = {};
@@ -180,6 +181,7 @@ class StationCommand : public Command {
     options.software_version = FLATSCAN_VERSION;
     options.until_idle_s = until_idle_s_;
     options.not_ready_after = not_ready_after_;
+    if (!http_.empty()) options.thumbnail_width = kThumbnailWidth;  // the page shows them
     std::unique_ptr<ImageArchive> archive;
     if (!archive_.empty()) archive = MakeArchive(recipes);
     StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,

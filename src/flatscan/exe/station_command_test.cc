@@ -665,6 +665,11 @@ TEST_F(StationCommand, ItsWebPageInABrowserShowsTheStore) {
   records = Results("web.db");
   EXPECT_EQ(StoreRow(dom), CountsOf(records)) << dom;
   EXPECT_NE(dom.find("#2 w1 at " + records[1]["time_utc"].get<std::string>()), std::string::npos) << dom;
+  // The last part's thumbnail, loaded (shown) from the station.
+  std::smatch overlay;
+  ASSERT_TRUE(std::regex_search(dom, overlay, std::regex(R"(<img id="overlay"[^>]*>)"))) << dom;
+  EXPECT_NE(overlay.str().find("src=\"/api/parts/2/image.jpg\""), std::string::npos) << overlay.str();
+  EXPECT_EQ(overlay.str().find("display: none"), std::string::npos) << overlay.str();
   station.Signal(SIGTERM);
   EXPECT_EQ(station.Wait(30), 0) << testing::ReadFileBytes(Dir() / "web.log.txt");
 }

@@ -176,6 +176,21 @@ void StationHttpServer::Route() {
     res.set_header("Cache-Control", "no-store");
     res.set_content(svg, "image/svg+xml");
   });
+  server_->Get(R"(/api/parts/(\d{1,18})/image.jpg)", [this](const Request& req, Response& res) {
+    const int64_t sequence = std::stoll(req.matches[1]);
+    std::string jpeg;
+    {
+      std::lock_guard lock(mutex_);
+      const auto found = images_.find(sequence);
+      if (found != images_.end()) jpeg = found->second;
+    }
+    if (jpeg.empty())
+      return Reply(res, 404, fmt::format("no image of part {}: the page keeps the last part's and those of the "
+                                         "last {} fails and not-measured parts",
+                                         sequence, kProblemImages));
+    res.set_header("Cache-Control", "max-age=3600");  // a part's image never changes
+    res.set_content(jpeg, "image/jpeg");
+  });
   server_->Get(R"(/api/parts/([^/]*))", [this](const Request& req, Response& res) {
     const std::string text = req.matches[1];
     const std::optional<int64_t> sequence = ParsePositiveInteger(text);
@@ -261,6 +276,22 @@ void StationHttpServer::Publish(const StationRecord& record, const StationCounts
   }
   std::lock_guard lock(cpu_mutex_);
   publishing_s_ += ThisThreadsCpuSeconds() - start;
+}
+
+void StationHttpServer::PublishImage(const StationRecord& record, const std::string& jpeg) {
+  const InspectionRecord& r = record.inspection;
+  const bool problem = !r.measured || !r.judgement.pass();
+  std::lock_guard lock(mutex_);
+  if (last_image_ != 0 && std::find(problem_images_.begin(), problem_images_.end(), last_image_) == problem_images_.end())
+    images_.erase(last_image_);
+  images_[record.sequence] = jpeg;
+  last_image_ = record.sequence;
+  if (!problem) return;
+  problem_images_.push_back(record.sequence);
+  if (problem_images_.size() > kProblemImages) {
+    images_.erase(problem_images_.front());
+    problem_images_.pop_front();
+  }
 }
 
 void StationHttpServer::Readiness(bool ready, const std::string& reason, const StationCounts&) {

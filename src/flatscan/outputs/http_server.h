@@ -16,6 +16,9 @@
 //                          latest first], "health": what the station reports (cameras,
 //                          store, outputs, calibration files, active recipe)}
 //   GET  /api/trend.svg    the trend as an individuals control chart (SVG)
+//   GET  /api/parts/N/image.jpg  the part's thumbnail (inspection_report.h, DrawRimThumbnail),
+//                          kept for the last part and the last 10 fails and not-measured
+//                          parts (404 otherwise)
 //   GET  /api/parts/N      the record with sequence N (404 when the store has none; 400
 //                          when N is not a sequence number)
 //   GET  /api/parts?from=T&to=T&limit=N   the records committed in [from, to) (ISO 8601
@@ -30,7 +33,9 @@
 // the server's two worker threads run at a lower CPU priority (nice 10) than measuring: a
 // page left open, or a misbehaving client on the network, cannot slow the line.
 #include <ctime>
+#include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -84,7 +89,9 @@ class StationHttpServer : public RecordPublisher {
   nlohmann::json Summary();
 
   void Publish(const StationRecord& record, const StationCounts& counts) override;
+  void PublishImage(const StationRecord& record, const std::string& jpeg) override;
   void Readiness(bool ready, const std::string& reason, const StationCounts& counts) override;
+  static constexpr size_t kProblemImages = 10;
 
   // The CPU time the server has cost the station: its threads' (listening, reading and
   // answering requests, refusing them) and Publish's (keeping the page's figures, on the
@@ -105,8 +112,11 @@ class StationHttpServer : public RecordPublisher {
   int port_ = 0;
   HttpServerOptions options_;
   StationHooks hooks_;
-  std::mutex mutex_;  // guards summary_
+  std::mutex mutex_;  // guards summary_ and the images
   LiveSummary summary_;
+  std::map<int64_t, std::string> images_;  // JPEG by sequence: the last part's and the problems'
+  std::deque<int64_t> problem_images_;     // the last kProblemImages fails and not-measured parts
+  int64_t last_image_ = 0;
   std::mutex bucket_mutex_;  // apart: a flood of refused requests does not hold up Publish()
   double bucket_ = 0;
   std::chrono::steady_clock::time_point bucket_time_;

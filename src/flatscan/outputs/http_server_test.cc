@@ -47,6 +47,34 @@ nlohmann::json GetSummary(int port) {
   return nlohmann::json::parse(r.body, nullptr, false);
 }
 
+// Thumbnails: the last part's, and those of the last 10 fails and not-measured parts; a
+// pass's goes when the next part comes.
+TEST(StationHttpServer, KeepsTheImagesOfTheLastPartAndOfTheRecentProblems) {
+  StationHttpServer server({}, Summary("line-1"), {});
+  const auto publish = [&](int64_t sequence, double flatness) {
+    StationRecord r = testing::TestRecord(fmt::format("p{}", sequence), std::string(64, 'a'), flatness);
+    r.sequence = sequence;
+    server.PublishImage(r, fmt::format("jpeg of {}", sequence));
+    server.Publish(r, {});
+  };
+  publish(1, 0.05);  // a pass
+  Reply r = Get(server.Port(), "/api/parts/1/image.jpg");
+  EXPECT_EQ(r.status, 200);
+  EXPECT_EQ(r.content_type, "image/jpeg");
+  EXPECT_EQ(r.body, "jpeg of 1");
+  publish(2, 0.15);  // a fail
+  for (int64_t k = 3; k <= 12; ++k) publish(k, k % 2 ? -1 : 0.2);  // 10 more problems
+  publish(13, 0.05);
+  EXPECT_EQ(Get(server.Port(), "/api/parts/1/image.jpg").status, 404);   // a pass, no longer the last
+  EXPECT_EQ(Get(server.Port(), "/api/parts/2/image.jpg").status, 404);   // the 11th problem back
+  EXPECT_EQ(Get(server.Port(), "/api/parts/3/image.jpg").body, "jpeg of 3");
+  EXPECT_EQ(Get(server.Port(), "/api/parts/13/image.jpg").body, "jpeg of 13");
+  r = Get(server.Port(), "/api/parts/2/image.jpg");
+  EXPECT_EQ(r.body, "no image of part 2: the page keeps the last part's and those of the last 10 fails and "
+                    "not-measured parts\n");
+  EXPECT_EQ(Get(server.Port(), "/api/parts/x/image.jpg").status, 404);
+}
+
 TEST(StationHttpServer, ServesTheCountsAndTheLastRecordAsTheyAreCommitted) {
   LiveSummary start = Summary("line-1");
   for (int i = 1; i <= 4; ++i) start.AddStored(testing::TestRecord(fmt::format("old-{}", i), "a", i < 4 ? 0.05 : -1));

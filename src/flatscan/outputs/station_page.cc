@@ -24,7 +24,8 @@ table{border-collapse:collapse}td,th{padding:3px 10px;text-align:left;border-bot
 <div id="verdict" class="none">-</div>
 <div id="part" class="small">no part yet</div>
 <div id="bar"><div id="fill" style="width:0"></div><div id="tol"></div></div>
-<div id="flatness" class="small"></div></div>
+<div id="flatness" class="small"></div>
+<img id="overlay" alt="" width="320" style="display:none;margin-top:8px"></div>
 <div><h2>Counts</h2><table><tr><th></th><th>measured</th><th>pass</th><th>fail</th><th>marginal</th>
 <th>not measured</th><th>yield</th></tr>
 <tr id="c-store"><th>whole store</th><td></td><td></td><td></td><td></td><td></td><td></td></tr>
@@ -33,7 +34,8 @@ table{border-collapse:collapse}td,th{padding:3px 10px;text-align:left;border-bot
 <h2>Trend: the last flatness values (mm), individuals chart, tolerance in red</h2>
 <img id="trend" alt="trend" src="/api/trend.svg">
 <div class="row"><div><h2>Recent fails and not measured</h2>
-<table id="problems"><tr><th>#</th><th>time (UTC)</th><th>part</th><th>verdict</th><th>why</th></tr></table></div>
+<table id="problems"><tr><th>#</th><th>time (UTC)</th><th>part</th><th>verdict</th><th>why</th><th>image</th></tr>
+</table></div>
 <div><h2>Health</h2><table id="health"></table></div></div>
 <script>
 const $ = id => document.getElementById(id);
@@ -60,6 +62,24 @@ function healthText(key, value) {
                           c.plane_sha256.slice(0, 12) + ' (' + c.plane_age_days + ' d)').join('; ');
   return typeof value === 'object' ? JSON.stringify(value) : value;
 }
+// A part's thumbnail: hidden when the station kept none (404).
+function image(img, sequence) {
+  img.onerror = () => { img.style.display = 'none'; };
+  img.onload = () => { img.style.display = ''; };
+  img.src = '/api/parts/' + Number(sequence) + '/image.jpg';
+}
+function problems(list) {
+  const t = $('problems');
+  while (t.rows.length > 1) t.deleteRow(1);
+  for (const p of list) {
+    const tr = t.insertRow();
+    for (const v of [p.sequence, p.time_utc, p.source_id, p.verdict, p.reason]) tr.insertCell().textContent = v;
+    const img = document.createElement('img');
+    img.width = 120;
+    image(img, p.sequence);
+    tr.insertCell().appendChild(img);
+  }
+}
 let shown = -1;
 function show(s) {
   $('station').textContent = 'flatscan station ' + s.station_id;
@@ -74,9 +94,10 @@ function show(s) {
   const h = s.health || {};
   if (h.active_recipe) $('recipe').textContent = h.active_recipe;
   table('health', 0, Object.keys(h).map(k => [k, healthText(k, h[k])]));
-  table('problems', 1, s.recent_problems.map(p => [p.sequence, p.time_utc, p.source_id, p.verdict, p.reason]));
   if (!s.last || s.last.sequence === shown) return;
   shown = s.last.sequence;
+  problems(s.recent_problems);
+  image($('overlay'), s.last.sequence);
   const r = s.last, v = $('verdict');
   v.textContent = r.measured ? r.verdict.toUpperCase() + (r.marginal ? ' (marginal)' : '') : 'NOT MEASURED';
   v.className = r.measured ? r.verdict : 'none';

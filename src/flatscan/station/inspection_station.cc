@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_pipeline.h>
 
+#include "flatscan/inspection/inspection_report.h"
 #include "flatscan/io/image_io.h"
 #include "flatscan/util/error.h"
 #include "flatscan/util/sha256.h"
@@ -49,13 +50,26 @@ std::pair<HashedImage, HashedImage> PairImages(const LoadedRecipe& loaded, const
   return {ReadGreyImageHashed(inputs.left_file, left_size), ReadGreyImageHashed(inputs.right_file, right_size)};
 }
 
-// The pair's record; `r`'s image hashes are those of the bytes decoded.
+// The part's thumbnail as JPEG bytes: rim heights on a measured part, the image alone on
+// one not measured; "" when not asked for.
+std::string Thumbnail(const cv::Mat1b& left, const InspectionResult* result, const Recipe& recipe, int width) {
+  if (width <= 0 || left.empty()) return "";
+  return EncodeJpeg(DrawRimThumbnail(left, result, recipe.spec, width));
+}
+
+// The pair's record; `r`'s image hashes are those of the bytes decoded; `thumbnail` (when
+// not nullptr) gets the part's thumbnail `width` pixels wide.
 InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& pair, const InspectionInputs& inputs,
-                                  StationRecord& r) {
+                                  StationRecord& r, std::string* thumbnail, int width) {
   const Recipe& recipe = loaded.recipe;
   if (pair.not_measurable) return NotMeasuredRecord(*pair.not_measurable, recipe.params, recipe.spec, inputs);
+  std::string ignored;
+  std::string& jpeg = thumbnail ? *thumbnail : ignored;
+  if (!thumbnail) width = 0;
+  cv::Mat1b left_image;  // once decoded: a part not measured still gets its picture
   try {
     const auto [left, right] = PairImages(loaded, pair, inputs);
+    left_image = left.image;
     r.left_sha256 = left.sha256;
     r.right_sha256 = right.sha256;
     // Messages name the image: its file, or the camera a frame came from.
@@ -63,10 +77,14 @@ InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& 
         InspectPart(loaded.rig, loaded.plane, left.image, right.image, recipe.params,
                     pair.frames ? "left camera frame" : inputs.left_file,
                     pair.frames ? "right camera frame" : inputs.right_file);
-    if (const auto wrong = WrongPartReason(recipe, result))
+    if (const auto wrong = WrongPartReason(recipe, result)) {
+      jpeg = Thumbnail(left_image, nullptr, recipe, width);
       return NotMeasuredRecord(*wrong, recipe.params, recipe.spec, inputs);
+    }
+    jpeg = Thumbnail(left_image, &result, recipe, width);
     return MeasuredRecord(result, recipe.params, recipe.spec, inputs);
   } catch (const InputError& e) {
+    jpeg = Thumbnail(left_image, nullptr, recipe, width);
     return NotMeasuredRecord(e.what(), recipe.params, recipe.spec, inputs);
   } catch (const std::exception& e) {
     // Not the pair's fault as far as anyone can tell (out of memory, an OpenCV error):
@@ -79,7 +97,8 @@ InspectionRecord InspectOrExplain(const LoadedRecipe& loaded, const SourcePair& 
 
 }  // namespace
 
-StationRecord MeasureSourcePair(const LoadedRecipe& loaded, const SourcePair& pair, const StationOptions& options) {
+StationRecord MeasureSourcePair(const LoadedRecipe& loaded, const SourcePair& pair, const StationOptions& options,
+                                std::string* thumbnail_jpeg) {
   StationRecord r;
   r.record_id = NewRecordId();
   r.station_id = options.station_id;
@@ -91,7 +110,7 @@ StationRecord MeasureSourcePair(const LoadedRecipe& loaded, const SourcePair& pa
   inputs.id = pair.source_id;
   inputs.left_file = pair.left.string();
   inputs.right_file = pair.right.string();
-  r.inspection = InspectOrExplain(loaded, pair, inputs, r);
+  r.inspection = InspectOrExplain(loaded, pair, inputs, r, thumbnail_jpeg, options.thumbnail_width);
   // An image that was not decoded (half pair, corrupt file) is hashed as a file.
   if (r.left_sha256.empty() && !pair.left.empty()) r.left_sha256 = HashOrEmpty(pair.left);
   if (r.right_sha256.empty() && !pair.right.empty()) r.right_sha256 = HashOrEmpty(pair.right);
@@ -115,6 +134,7 @@ struct InspectionStation::Measured {
   StationRecord record;
   SourcePair pair;
   size_t recipe = 0;
+  std::string thumbnail_jpeg;
 };
 
 void InspectionStation::Deliver(Measured& measured) {
@@ -147,7 +167,7 @@ void InspectionStation::Deliver(Measured& measured) {
                  in.spec.tolerance_mm);
   }
   SourceDone(pair);
-  Publish(record);
+  Publish(record, measured.thumbnail_jpeg);
   TrackSourceFaults(pair, record);
 }
 
@@ -185,8 +205,11 @@ void InspectionStation::SourceDone(const SourcePair& pair) {
   }
 }
 
-void InspectionStation::Publish(const StationRecord& record) {
-  Notify("publishing #" + std::to_string(record.sequence), [&](RecordPublisher& p) { p.Publish(record, counts_); });
+void InspectionStation::Publish(const StationRecord& record, const std::string& thumbnail_jpeg) {
+  const std::string what = "publishing #" + std::to_string(record.sequence);
+  if (!thumbnail_jpeg.empty())
+    Notify(what + "'s image", [&](RecordPublisher& p) { p.PublishImage(record, thumbnail_jpeg); });
+  Notify(what, [&](RecordPublisher& p) { p.Publish(record, counts_); });
 }
 
 // Calls `f` on every publisher; an exception from one is logged and does not reach the
@@ -257,7 +280,9 @@ void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
   };
   const auto measure = [&](const Item& item) {
     try {
-      return Measured{MeasureSourcePair(recipes_[item.second], item.first, options_), item.first, item.second};
+      Measured m{{}, item.first, item.second, {}};
+      m.record = MeasureSourcePair(recipes_[item.second], item.first, options_, &m.thumbnail_jpeg);
+      return m;
     } catch (...) {  // MeasureSourcePair turns a pair's problems into records; this is the station's
       failed = true;
       throw;

@@ -38,6 +38,10 @@ struct StationOptions {
   // comes through; 0: never. 5: a camera that lost one frame is not a station that
   // cannot work, five in a row is (a cable, a camera gone, a trigger line dead).
   int not_ready_after = 5;
+  // > 0: each part also gets a thumbnail this many pixels wide (inspection_report.h,
+  // DrawRimThumbnail; made in the parallel measuring stage) for the publishers'
+  // PublishImage (the web page, the part-images folder); 0: none (no cost).
+  int thumbnail_width = 0;
 };
 
 struct StationCounts {
@@ -54,6 +58,9 @@ class RecordPublisher {
  public:
   virtual ~RecordPublisher() = default;
   virtual void Publish(const StationRecord& record, const StationCounts& counts) = 0;
+  // The part's thumbnail (JPEG bytes), just before Publish, when the station makes them
+  // (StationOptions::thumbnail_width) and the pair had an image.
+  virtual void PublishImage(const StationRecord& /*record*/, const std::string& /*jpeg*/) {}
   // The station became not ready (`ready` false: the source failed not_ready_after pairs
   // in a row, `reason` says how) or ready again (a pair came through). Called after the
   // record that changed it was published.
@@ -64,8 +71,11 @@ class RecordPublisher {
   virtual void Failed(const StationCounts& counts, const std::string& /*reason*/) { Stopped(counts); }
 };
 
-// The record a station makes of one pair (the parallel stage), without sequence and time.
-StationRecord MeasureSourcePair(const LoadedRecipe& recipe, const SourcePair& pair, const StationOptions& options);
+// The record a station makes of one pair (the parallel stage), without sequence and time;
+// with options.thumbnail_width > 0 and `thumbnail_jpeg`, also the part's thumbnail (empty
+// when the pair has no image).
+StationRecord MeasureSourcePair(const LoadedRecipe& recipe, const SourcePair& pair, const StationOptions& options,
+                                std::string* thumbnail_jpeg = nullptr);
 
 class InspectionStation {
  public:
@@ -93,7 +103,7 @@ class InspectionStation {
   void Deliver(Measured& measured);
   void SkipRecorded(const SourcePair& pair);
   void SourceDone(const SourcePair& pair);
-  void Publish(const StationRecord& record);
+  void Publish(const StationRecord& record, const std::string& thumbnail_jpeg);
   void TrackSourceFaults(const SourcePair& pair, const StationRecord& record);
   void Notify(const std::string& what, const std::function<void(RecordPublisher&)>& f);
 
