@@ -60,6 +60,7 @@ class ReportCommand : public Command {
     if (report.counts.records == 0)
       ThrowInputError("--store '{}': no records{}{} (nothing to report)", store_,
                       recipe_name_.empty() ? "" : fmt::format(" of recipe '{}'", recipe_name_), RangeText());
+    AttachThumbnails(report);
     const std::string html = RenderReportHtml(report);
     out.StageText("--output", html);
     int pages = 0;

@@ -181,7 +181,8 @@ class StationCommand : public Command {
     options.software_version = FLATSCAN_VERSION;
     options.until_idle_s = until_idle_s_;
     options.not_ready_after = not_ready_after_;
-    if (!http_.empty()) options.thumbnail_width = kThumbnailWidth;  // the page shows them
+    // The page shows them; the archive keeps them beside the images for the report.
+    if (!http_.empty() || !archive_.empty()) options.thumbnail_width = kThumbnailWidth;
     std::unique_ptr<ImageArchive> archive;
     if (!archive_.empty()) archive = MakeArchive(recipes);
     StatusFile status(status_.empty() ? Beside(store_, ".status.json") : status_, station_id_,

@@ -17,6 +17,7 @@
 #include <modbus/modbus.h>
 #include <sqlite3.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "flatscan/io/image_io.h"
 #include "flatscan/outputs/mqtt_test_util.h"
@@ -360,6 +361,24 @@ TEST_F(StationCommand, WatchesAFolder) {
     }
   }
   EXPECT_EQ(by_id["lonely"]["archive"]["right"], "");
+  // A measured part's thumbnail beside its images (a JPEG cropped to the part); none where
+  // no image was decoded. The report shows it, embedded.
+  const cv::Mat thumbnail = cv::imread(by_id["w0"]["archive"]["thumbnail"].get<std::string>(), cv::IMREAD_COLOR);
+  EXPECT_TRUE((thumbnail.cols == 480 && thumbnail.rows <= 360) || (thumbnail.rows == 360 && thumbnail.cols <= 480))
+      << thumbnail.size();  // 480 wide or 360 high
+  EXPECT_FALSE(by_id["lonely"]["archive"].contains("thumbnail"));
+  EXPECT_FALSE(by_id["broken"]["archive"].contains("thumbnail"));
+  const fs::path html = Dir() / "live-report.html";
+  const auto report = testing::RunFlatscan(fmt::format("report --store {} -o {}", store.string(), html.string()), 60);
+  ASSERT_EQ(report.exit_code, 0) << report.err;
+  const std::string page = testing::ReadFileBytes(html);
+  size_t embedded = 0;
+  for (size_t at = page.find("src=\"data:image/jpeg;base64,/9j/"); at != std::string::npos;
+       at = page.find("src=\"data:image/jpeg;base64,/9j/", at + 1))
+    ++embedded;
+  size_t with_thumbnail = 0;
+  for (const auto& [id, r] : by_id) with_thumbnail += r["archive"].is_object() && r["archive"].contains("thumbnail");
+  EXPECT_EQ(embedded, with_thumbnail);  // the worst parts' (all measured ones here)
   for (const char* file : {"w0_left.png", "w1_right.png", "lonely_left.png", "broken_right.png"}) {
     EXPECT_TRUE(fs::exists(in / "done" / file)) << file;
     EXPECT_FALSE(fs::exists(in / file)) << file;

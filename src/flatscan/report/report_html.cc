@@ -1,5 +1,6 @@
 // RenderReportHtml (station_report.h): one HTML file, the charts inline.
 #include <fmt/format.h>
+#include <openssl/evp.h>
 
 #include "flatscan/report/station_report.h"
 #include "flatscan/report/svg_chart.h"
@@ -50,11 +51,29 @@ std::string PeriodsTable(const std::vector<PeriodReport>& rows, const char* peri
   return out + "</table>\n";
 }
 
+// Base64 (RFC 4648) with OpenSSL's encoder, for images embedded as data: URIs.
+std::string Base64(const std::string& bytes) {
+  std::string out(4 * ((bytes.size() + 2) / 3) + 1, '\0');
+  const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()),
+                                reinterpret_cast<const unsigned char*>(bytes.data()), int(bytes.size()));
+  out.resize(size_t(n));
+  return out;
+}
+
+std::string Thumbnail(const ReportedPart& p) {
+  if (!p.image_jpeg.empty())
+    return fmt::format("<img alt=\"part {}\" width=\"240\" src=\"data:image/jpeg;base64,{}\">", p.sequence,
+                       Base64(p.image_jpeg));
+  return p.thumbnail.empty() ? "-" : "<span class=\"note\">no longer in the archive</span>";
+}
+
 std::string PartsTable(const std::vector<ReportedPart>& parts, bool flatness) {
-  std::string out = "<table>" + Row({"#", "time (UTC)", "part", flatness ? "flatness (mm)" : "reason"}, true);
+  std::string out =
+      "<table>" + Row({"#", "time (UTC)", "part", flatness ? "flatness (mm)" : "reason", "thumbnail"}, true);
   for (const ReportedPart& p : parts)
     out += Row({std::to_string(p.sequence), HtmlEscape(p.time_utc), HtmlEscape(p.source_id),
-                flatness ? fmt::format("{:.4f} {}", p.flatness_mm, HtmlEscape(p.verdict)) : HtmlEscape(p.verdict)});
+                flatness ? fmt::format("{:.4f} {}", p.flatness_mm, HtmlEscape(p.verdict)) : HtmlEscape(p.verdict),
+                Thumbnail(p)});
   return out + "</table>\n";
 }
 

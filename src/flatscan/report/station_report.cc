@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -21,7 +23,8 @@ std::string VerdictText(const InspectionRecord& r) {
 }
 
 ReportedPart Part(const StationRecord& r) {
-  return {r.sequence, r.time_utc, r.source_id, r.inspection.values.flatness_mm, VerdictText(r.inspection)};
+  return {r.sequence,      r.time_utc, r.source_id, r.inspection.values.flatness_mm, VerdictText(r.inspection),
+          r.archive.thumbnail, ""};
 }
 
 void FinishRecipe(RecipeReport& recipe, const std::vector<const StationRecord*>& records) {
@@ -81,6 +84,22 @@ void RecordCounts::Add(const InspectionRecord& r) {
   ++measured;
   (r.judgement.pass() ? pass : fail) += 1;
   marginal += r.judgement.marginal;
+}
+
+int AttachThumbnails(StationReport& report) {
+  int read = 0;
+  for (RecipeReport& recipe : report.recipes)
+    for (std::vector<ReportedPart>* list : {&recipe.worst, &recipe.not_measured})
+      for (ReportedPart& part : *list) {
+        if (part.thumbnail.empty()) continue;
+        std::ifstream in(part.thumbnail, std::ios::binary);
+        std::stringstream bytes;
+        bytes << in.rdbuf();
+        if (!in || bytes.str().empty()) continue;
+        part.image_jpeg = bytes.str();
+        ++read;
+      }
+  return read;
 }
 
 std::string HtmlEscape(const std::string& text) {

@@ -34,6 +34,8 @@ struct ReportedPart {
   std::string time_utc, source_id;
   double flatness_mm = 0;
   std::string verdict;  // "pass", "fail" (with " (marginal)"), or "not measured: <reason>"
+  std::string thumbnail;   // the archived thumbnail's path (record.archive.thumbnail), or ""
+  std::string image_jpeg;  // its bytes, when the caller read them (AttachThumbnails)
 };
 
 struct RecipeReport {
@@ -75,7 +77,11 @@ struct StationReport {
 StationReport SummariseRecords(const std::vector<StationRecord>& records, const std::string& recipe_name,
                                const std::string& query, const ShiftCalendar& shifts);
 
-// The HTML page (UTF-8, one file).
+// Reads the thumbnails of the listed parts (worst and not measured) from their archived
+// files; a file that is gone (the archive's quota) is left out. How many were read.
+int AttachThumbnails(StationReport& report);
+
+// The HTML page (UTF-8, one file; thumbnails embedded as data: URIs).
 std::string RenderReportHtml(const StationReport& report);
 
 // Text with &, <, >, " and ' escaped for HTML.

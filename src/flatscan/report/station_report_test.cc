@@ -1,5 +1,6 @@
 #include "flatscan/report/station_report.h"
 
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -119,7 +120,28 @@ TEST(StationReport, TheHtmlIsOneFileWithItsChartsAndEscapesWhatItQuotes) {
   EXPECT_NE(html.find("The calibration changed during the period."), std::string::npos);
   for (const char* external : {"<script", "src=", "href=", "<link", "@import"})
     EXPECT_EQ(html.find(external), std::string::npos) << external;  // nothing fetched
+  EXPECT_EQ(html.find("no longer in the archive"), std::string::npos);
   EXPECT_EQ(HtmlEscape("a<b>&\"c'"), "a&lt;b&gt;&amp;&quot;c&#39;");
+}
+
+// The worst parts' thumbnails, read from the archive and embedded as data: URIs (the only
+// src= in the page); one whose file is gone is said so.
+TEST(StationReport, EmbedsTheArchivedThumbnailsOfTheListedParts) {
+  testing::ScratchDir dir("report-thumbs");
+  std::vector<StationRecord> records = Records();
+  records[4].archive = {"l.png", "r.png", (dir.path() / "p5_thumb.jpg").string()};  // the worst shield part
+  records[5].archive = {"l.png", "r.png", (dir.path() / "gone_thumb.jpg").string()};
+  std::ofstream(records[4].archive.thumbnail, std::ios::binary) << "\xff\xd8\xff JPEG";
+  StationReport report = SummariseRecords(records, "shield", "q", kShifts);
+  EXPECT_EQ(AttachThumbnails(report), 1);
+  const std::string html = RenderReportHtml(report);
+  EXPECT_NE(html.find("<img alt=\"part 5\" width=\"240\" src=\"data:image/jpeg;base64,/9j/IEpQRUc=\">"),
+            std::string::npos)
+      << html;
+  EXPECT_NE(html.find("no longer in the archive"), std::string::npos);
+  size_t sources = 0;
+  for (size_t at = html.find("src="); at != std::string::npos; at = html.find("src=", at + 1)) ++sources;
+  EXPECT_EQ(sources, 1u);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <tuple>
 
@@ -40,6 +41,13 @@ void WriteFrame(const cv::Mat1b& frame, const fs::path& target) {
   }
 }
 
+void WriteBytes(const std::string& bytes, const fs::path& target) {
+  std::ofstream out(target, std::ios::binary);
+  out << bytes;
+  out.close();
+  if (!out) ThrowInputError("archive: cannot write {}", target.string());
+}
+
 }  // namespace
 
 ImageArchive::ImageArchive(fs::path dir, double quota_mb, double fail_retention_days)
@@ -63,7 +71,7 @@ void ImageArchive::Index() {
     for (const auto& entry : fs::recursive_directory_iterator(dir_ / kind)) {
       if (!entry.is_regular_file()) continue;
       std::string stem = entry.path().filename().string();
-      for (const char* side : {"_left.png", "_right.png"})
+      for (const char* side : {"_left.png", "_right.png", "_thumb.jpg"})
         if (stem.ends_with(side)) stem.resize(stem.size() - std::strlen(side));
       auto [it, added] = by_pair.try_emplace(entry.path().parent_path() / stem);
       Entry& e = it->second;
@@ -82,7 +90,8 @@ void ImageArchive::Index() {
   std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) { return a.time < b.time; });
 }
 
-ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& pair, const ArchivePolicy& policy) {
+ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& pair, const ArchivePolicy& policy,
+                                const std::string& thumbnail_jpeg) {
   const std::string kind = Kind(record.inspection);
   if (kind == "pass") {
     const bool keep = policy.keep_pass_every > 0 && passes_seen_ % policy.keep_pass_every == 0;
@@ -109,6 +118,13 @@ ArchivedPair ImageArchive::Keep(const StationRecord& record, const SourcePair& p
       else Copy(source, file);
       *target = file.string();
       entry.bytes += int64_t(fs::file_size(file));
+    }
+    if (!entry.files.empty() && !thumbnail_jpeg.empty()) {
+      const fs::path file = folder / (stem + "_thumb.jpg");
+      entry.files.push_back(file);
+      WriteBytes(thumbnail_jpeg, file);
+      out.thumbnail = file.string();
+      entry.bytes += int64_t(thumbnail_jpeg.size());
     }
   } catch (...) {  // no half-archived pair left behind
     for (const fs::path& f : entry.files) fs::remove(f, ec);

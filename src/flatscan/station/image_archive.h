@@ -5,7 +5,8 @@
 // What is kept: every "fail" and every "not measured" pair, and one "pass" pair in
 // `keep_pass_every` (the first, then every N-th pass this station run records).
 // Layout: DIR/<pass|fail|not_measured>/<YYYY-MM-DD>/<source id>_<record id's first 8
-// hex digits>_<left|right>.png (the day is the record's UTC day; the source id made a safe
+// hex digits>_<left|right>.png, and _thumb.jpg for the part's thumbnail when the station
+// makes them (inspection_report.h, DrawRimThumbnail: the report shows the worst parts') (the day is the record's UTC day; the source id made a safe
 // file name by io/output_files.h's SafeFileName). A kept image is a copy (not a hard link: a
 // source rewritten in place must not change it). The record names the two files
 // (`archive`: {left, right}); its left_sha256/right_sha256 are their bytes' hashes.
@@ -34,10 +35,12 @@ class ImageArchive {
   // the folder when it cannot be created or read.
   ImageArchive(std::filesystem::path dir, double quota_mb, double fail_retention_days);
 
-  // Keeps the pair's images when the policy says so (and returns where), then applies the
-  // quota. Empty when not kept. Throws InputError when the images cannot be written
-  // (a full disk): the caller records the part without them.
-  ArchivedPair Keep(const StationRecord& record, const SourcePair& pair, const ArchivePolicy& policy);
+  // Keeps the pair's images when the policy says so (and returns where), with the part's
+  // thumbnail (JPEG bytes, when not empty) beside them, then applies the quota. Empty
+  // when not kept. Throws InputError when the images cannot be written (a full disk): the
+  // caller records the part without them.
+  ArchivedPair Keep(const StationRecord& record, const SourcePair& pair, const ArchivePolicy& policy,
+                    const std::string& thumbnail_jpeg = "");
 
   int64_t bytes() const { return bytes_; }
   size_t pairs() const { return entries_.size(); }

@@ -45,10 +45,17 @@ TEST(ImageArchive, KeepsFailsNotMeasuredAndOnePassInN) {
   EXPECT_EQ(fs::path(kept.left).parent_path().parent_path().filename(), "fail");
   EXPECT_EQ(fs::path(kept.left).filename(), "bad_one_7_" + fail.record_id.substr(0, 8) + "_left.png");
   EXPECT_EQ(testing::ReadFileBytes(kept.right), std::string(1000, 'R'));
+  EXPECT_EQ(kept.thumbnail, "");  // none given
+  // With the part's thumbnail: beside the images, and one pair with them.
   const auto [nm, nm_pair] = Pair(dir.path(), "n", "not_measured");
-  EXPECT_FALSE(archive.Keep(nm, nm_pair, policy).right.empty());
+  const ArchivedPair with_thumbnail = archive.Keep(nm, nm_pair, policy, "JPEG bytes");
+  EXPECT_EQ(fs::path(with_thumbnail.thumbnail).filename(), "n_" + nm.record_id.substr(0, 8) + "_thumb.jpg");
+  EXPECT_EQ(testing::ReadFileBytes(with_thumbnail.thumbnail), "JPEG bytes");
   EXPECT_EQ(archive.pairs(), 5u);
-  EXPECT_EQ(ImageArchive(dir.path() / "archive", 100, 90).pairs(), 5u);  // indexed again at start-up
+  EXPECT_EQ(archive.bytes(), 5 * 2 * 1000 + 10);
+  const ImageArchive again(dir.path() / "archive", 100, 90);  // indexed again at start-up
+  EXPECT_EQ(again.pairs(), 5u);
+  EXPECT_EQ(again.bytes(), 5 * 2 * 1000 + 10);
 }
 
 TEST(ImageArchive, TheQuotaEvictsTheOldestPassesAndNeverARecentFail) {

@@ -146,7 +146,7 @@ void InspectionStation::Deliver(Measured& measured) {
   }
   if (archive_) {
     try {
-      record.archive = archive_->Keep(record, pair, recipes_[measured.recipe].recipe.archive);
+      record.archive = archive_->Keep(record, pair, recipes_[measured.recipe].recipe.archive, measured.thumbnail_jpeg);
     } catch (const std::exception& e) {  // a full disk: the record still goes to the store
       spdlog::error("{}: images not archived: {}", record.source_id, e.what());
     }

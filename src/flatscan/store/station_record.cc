@@ -37,6 +37,7 @@ json StationRecordToJson(const StationRecord& r) {
   j["right_sha256"] = r.right_sha256;
   j["software_version"] = r.software_version;
   j["archive"] = r.archive.left.empty() ? json(nullptr) : json{{"left", r.archive.left}, {"right", r.archive.right}};
+  if (!r.archive.thumbnail.empty()) j["archive"]["thumbnail"] = r.archive.thumbnail;
   return j;
 }
 
@@ -68,6 +69,7 @@ StationRecord StationRecordFromJson(const json& j) {
   if (j.contains("archive") && j.at("archive").is_object()) {
     r.archive.left = StringAt(j.at("archive"), "left");
     r.archive.right = StringAt(j.at("archive"), "right");
+    if (j.at("archive").contains("thumbnail")) r.archive.thumbnail = StringAt(j.at("archive"), "thumbnail");
   }
   return r;
 }

@@ -13,7 +13,8 @@
 //   recipe, recipe_sha256   the recipe's name and the SHA-256 of its file
 //   left_sha256, right_sha256   SHA-256 of each image file's bytes
 //   software_version   flatscan's version
-//   archive            {left, right}: where the images were archived, or null
+//   archive            {left, right[, thumbnail]}: where the images (and the part's
+//                      thumbnail, when the station made one) were archived, or null
 #include <cstdint>
 #include <string>
 
@@ -25,6 +26,7 @@ namespace flatscan {
 
 struct ArchivedPair {
   std::string left, right;  // paths of the archived copies; empty when not archived
+  std::string thumbnail;    // the part's thumbnail (JPEG) beside them; empty when none
 };
 
 struct StationRecord {

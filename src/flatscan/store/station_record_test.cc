@@ -28,7 +28,7 @@ StationRecord SomeStationRecord() {
   r.left_sha256 = std::string(64, 'd');
   r.right_sha256 = std::string(64, 'e');
   r.software_version = "0.1.0";
-  r.archive = {"archive/p1_left.png", "archive/p1_right.png"};
+  r.archive = {"archive/p1_left.png", "archive/p1_right.png", "archive/p1_thumb.jpg"};
   r.inspection = MeasuredRecord(result, InspectionParams{}, {0.1, 0.0}, inputs);
   return r;
 }
@@ -40,8 +40,13 @@ TEST(StationRecord, RoundTripsThroughJsonWithTheStationKeys) {
                           "left_sha256", "right_sha256", "software_version", "archive", "flatness_mm", "verdict"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["verdict"], "pass");
+  EXPECT_EQ(j["archive"]["thumbnail"], "archive/p1_thumb.jpg");
   const StationRecord back = StationRecordFromJson(nlohmann::json::parse(j.dump()));
   EXPECT_EQ(StationRecordToJson(back), j);
+  // Records from before thumbnails: no key, read as none.
+  nlohmann::json old = j;
+  old["archive"].erase("thumbnail");
+  EXPECT_EQ(StationRecordFromJson(old).archive.thumbnail, "");
   EXPECT_EQ(back.inspection.values.flatness_mm, 0.0812);  // exact: JSON keeps doubles round-trip
 }
 
