@@ -18,7 +18,8 @@ PACKAGES=(
   libaravis-dev libusb-1.0-0-dev aravis-tools       # GenICam cameras (acquisition/); aravis-0.8.pc needs libusb's .pc; the fake GigE camera
   iproute2 util-linux                               # `ip` and `unshare`: the two-GigE-camera tests in a private network namespace
   libcpp-httplib-dev                                # the station's web page (outputs/http_server.cc)
-  chromium                                          # headless browser: the web page test and its screenshots
+  chromium                                          # headless browser: the web page test, report --pdf, screenshots
+  libcmark-gfm-dev libcmark-gfm-extensions-dev      # Markdown (with tables) to HTML: the evaluate study's report.html
   openssl                                           # self-signed certificates for the TLS tests (MQTT, PostgreSQL)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)

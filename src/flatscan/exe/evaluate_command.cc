@@ -1,5 +1,8 @@
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -11,6 +14,7 @@
 #include "flatscan/exe/options.h"
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/image_io.h"
+#include "flatscan/report/html_page.h"
 #include "flatscan/simulation/scene_config.h"
 #include "flatscan/util/error.h"
 
@@ -145,30 +149,41 @@ class EvaluateCommand : public Command {
                            {"true_calibration", true_calibration_},
                            {"calibration", CalibrationJson(station)}};
     std::cout << md << std::flush;
-    // Each study's section: on the terminal as it completes, in report.md and in the JSON.
+    std::string html = MarkdownToHtml(md);  // report.html's body: the same text, the charts inside
+    // Each study's section: on the terminal as it completes, in report.md, report.html and the JSON.
     auto add_section = [&](const char* key, const std::string& markdown, nlohmann::json section) {
       std::cout << markdown << "\n" << std::flush;
       md += markdown + "\n";
+      html += MarkdownToHtml(markdown);
       json[key] = std::move(section);
+    };
+    // A chart: a PNG file beside report.md, and inside report.html after its section.
+    auto add_chart = [&](const std::string& name, const cv::Mat& chart) {
+      const std::filesystem::path file = root / name;
+      WriteImage(file.string(), chart);
+      std::ifstream in(file, std::ios::binary);
+      const std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      html += fmt::format("<p><img alt=\"{0}\" src=\"{1}\"><br><span class=\"note\">{0}</span></p>\n", name,
+                          DataUri("image/png", png));
     };
     if (repeat_) {
       const RepeatStudy study = RunRepeatStudy(station, repeat_options_, ProgressLogger("repeat: shot"));
       add_section("repeat", RepeatMarkdown(study, repeat_options_), RepeatJson(study, repeat_options_));
-      WriteImage((root / "repeat_shots.png").string(), RepeatShotsChart(study));
+      add_chart("repeat_shots.png", RepeatShotsChart(study));
       if (save_worst_ > 0)
         SaveWorstParts(station, study.shots, save_worst_, seed_, root / "worst_repeat",
                        [&](int i) { return RenderRepeatShot(station, repeat_options_, i); });
-      WriteImage((root / "repeat_error_histogram.png").string(),
+      add_chart("repeat_error_histogram.png",
                  ErrorHistogramChart(study.shots, 2 * std::sqrt(study.variance_mm2), "Repeat study: flatness error of each shot"));
     }
     if (batch_options_.parts > 0) {
       const BatchStudy study = RunBatchStudy(station, batch_options_, ProgressLogger("batch: part"));
       add_section("batch", BatchMarkdown(study, batch_options_), BatchJson(study, batch_options_));
-      WriteImage((root / "batch_measured_vs_true.png").string(), MeasuredVsTrueChart(study, tolerance_));
+      add_chart("batch_measured_vs_true.png", MeasuredVsTrueChart(study, tolerance_));
       if (save_worst_ > 0)
         SaveWorstParts(station, study.parts, save_worst_, seed_, root / "worst",
                        [&](int i) { return RenderBatchPart(station, batch_options_, i); });
-      WriteImage((root / "batch_error_histogram.png").string(),
+      add_chart("batch_error_histogram.png",
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
       // Each part's uncertainty against its error, over --calibrations stations.
       std::vector<std::vector<PartMeasurement>> stations = {study.parts};
@@ -187,7 +202,7 @@ class EvaluateCommand : public Command {
     if (rotation) {
       const RotationStudy study = RunRotationStudy(station, rotation_options_, ProgressLogger("rotation: part"));
       add_section("rotation", RotationMarkdown(study, rotation_options_), RotationJson(study, rotation_options_));
-      WriteImage((root / "rotation_coverage.png").string(), RotationChart(study));
+      add_chart("rotation_coverage.png", RotationChart(study));
     }
     if (robustness_options_.parts > 0) {
       const RobustnessStudy study =
@@ -197,9 +212,10 @@ class EvaluateCommand : public Command {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json["total_time_s"] = seconds;
     WriteTextFileAtomically(root / "report.md", md);
+    WriteTextFileAtomically(root / "report.html", HtmlPage("flatscan evaluate: " + scene.name, html));
     WriteTextFileAtomically(root / "evaluation.json", json.dump(1) + "\n");
     dir.Commit();
-    std::cout << fmt::format("wrote {}/ (report.md, evaluation.json, charts, station/) in {:.1f} s\n", output_, seconds);
+    std::cout << fmt::format("wrote {}/ (report.md, report.html, evaluation.json, charts, station/) in {:.1f} s\n", output_, seconds);
     return 0;
   }
 

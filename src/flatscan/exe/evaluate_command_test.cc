@@ -87,6 +87,21 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
 
   const std::string report = testing::ReadFileBytes(out / "report.md");
   EXPECT_NE(report.find("### Batch classification (paper Table 2): 6 parts"), std::string::npos);
+  // The same report as one HTML file: its tables as tables, the five charts inside (PNG
+  // data: URIs, the page's only sources), nothing fetched.
+  const std::string html = testing::ReadFileBytes(out / "report.html");
+  EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_NE(html.find("<h3>Batch classification (paper Table 2): 6 parts"), std::string::npos);
+  EXPECT_NE(html.find("<table>"), std::string::npos);
+  size_t charts = 0, sources = 0;
+  for (size_t at = html.find("src=\"data:image/png;base64,iVBORw0KGgo"); at != std::string::npos;
+       at = html.find("src=\"data:image/png;base64,iVBORw0KGgo", at + 1))
+    ++charts;
+  for (size_t at = html.find("src="); at != std::string::npos; at = html.find("src=", at + 1)) ++sources;
+  EXPECT_EQ(charts, 5u);
+  EXPECT_EQ(sources, 5u);
+  for (const char* external : {"<script", "href=", "<link", "@import"})
+    EXPECT_EQ(html.find(external), std::string::npos) << external;
 }
 
 TEST(EvaluateCommand, BadInputExitsTwoWithoutOutput) {

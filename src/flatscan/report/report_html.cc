@@ -1,23 +1,11 @@
 // RenderReportHtml (station_report.h): one HTML file, the charts inline.
 #include <fmt/format.h>
-#include <openssl/evp.h>
 
 #include "flatscan/report/station_report.h"
 #include "flatscan/report/svg_chart.h"
 
 namespace flatscan {
 namespace {
-
-constexpr const char* kStyle =
-    "body{font-family:sans-serif;margin:24px;color:#222}h1{font-size:22px}h2{font-size:18px;margin-top:28px}"
-    "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
-    "th{background:#f2f2f2}.num{text-align:right}.fail{color:#c00;font-weight:bold}.note{color:#555;font-size:12px}"
-    "code{background:#f4f4f4;padding:1px 4px}"
-    // Printed (--pdf): A4, each recipe from the top of a page, no table or chart cut in two.
-    // Smaller type and charts on paper: a recipe with a few listed parts fits one page (ten
-    // worst and ten not-measured parts take two).
-    "@page{size:A4;margin:12mm}@media print{body{margin:0;font-size:10pt}h2{margin-top:8px}td,th{padding:1px 5px}"
-    "svg{height:170px;width:auto}.recipe{break-before:page}table,svg{break-inside:avoid}}";
 
 std::string Row(const std::vector<std::string>& cells, bool header = false) {
   std::string out = "<tr>";
@@ -51,19 +39,10 @@ std::string PeriodsTable(const std::vector<PeriodReport>& rows, const char* peri
   return out + "</table>\n";
 }
 
-// Base64 (RFC 4648) with OpenSSL's encoder, for images embedded as data: URIs.
-std::string Base64(const std::string& bytes) {
-  std::string out(4 * ((bytes.size() + 2) / 3) + 1, '\0');
-  const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()),
-                                reinterpret_cast<const unsigned char*>(bytes.data()), int(bytes.size()));
-  out.resize(size_t(n));
-  return out;
-}
-
 std::string Thumbnail(const ReportedPart& p) {
   if (!p.image_jpeg.empty())
-    return fmt::format("<img alt=\"part {}\" width=\"240\" src=\"data:image/jpeg;base64,{}\">", p.sequence,
-                       Base64(p.image_jpeg));
+    return fmt::format("<img alt=\"part {}\" width=\"240\" src=\"{}\">", p.sequence,
+                       DataUri("image/jpeg", p.image_jpeg));
   return p.thumbnail.empty() ? "-" : "<span class=\"note\">no longer in the archive</span>";
 }
 
@@ -124,9 +103,7 @@ std::string Recipe(const RecipeReport& r) {
 
 std::string RenderReportHtml(const StationReport& report) {
   std::string out = fmt::format(
-      "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>flatscan report</title><style>{}"
-      "</style></head><body>\n<h1>Flatness inspection report</h1>\n<p>Records from {} to {} (UTC), stations {}.</p>\n",
-      kStyle, HtmlEscape(report.first_utc.empty() ? "-" : report.first_utc),
+      "<p>Records from {} to {} (UTC), stations {}.</p>\n", HtmlEscape(report.first_utc.empty() ? "-" : report.first_utc),
       HtmlEscape(report.last_utc.empty() ? "-" : report.last_utc), HtmlEscape(fmt::format("{}", fmt::join(report.stations, ", "))));
   out += "<h2>Summary</h2>\n" + CountsTable(report.counts);
   out += "<h2>By day</h2>\n" + PeriodsTable(report.days, "day (local)");
@@ -135,10 +112,10 @@ std::string RenderReportHtml(const StationReport& report) {
          "station's local time (--shifts).</p>\n";
   for (const RecipeReport& r : report.recipes) out += Recipe(r);
   out += fmt::format("<h2>How this report was made</h2>\n<p>Query: <code>{}</code><br>Generated {} (UTC) by flatscan; "
-                     "records measured by flatscan {}.</p>\n</body></html>\n",
+                     "records measured by flatscan {}.</p>\n",
                      HtmlEscape(report.query), HtmlEscape(report.generated_utc),
                      HtmlEscape(fmt::format("{}", fmt::join(report.software_versions, ", "))));
-  return out;
+  return HtmlPage("Flatness inspection report", out);
 }
 
 }  // namespace flatscan

@@ -102,22 +102,6 @@ int AttachThumbnails(StationReport& report) {
   return read;
 }
 
-std::string HtmlEscape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (const char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 StationReport SummariseRecords(const std::vector<StationRecord>& records, const std::string& recipe_name,
                                const std::string& query, const ShiftCalendar& shifts) {
   StationReport report;

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "flatscan/report/html_page.h"
 #include "flatscan/report/shift_calendar.h"
 #include "flatscan/spc/spc.h"
 #include "flatscan/store/station_record.h"
@@ -83,8 +84,5 @@ int AttachThumbnails(StationReport& report);
 
 // The HTML page (UTF-8, one file; thumbnails embedded as data: URIs).
 std::string RenderReportHtml(const StationReport& report);
-
-// Text with &, <, >, " and ' escaped for HTML.
-std::string HtmlEscape(const std::string& text);
 
 }  // namespace flatscan
