@@ -204,23 +204,33 @@ std::vector<StationRecord> SomeRecords(benchmark::State& state, size_t count) {
 
 // Loading the page as a browser does on a fresh connection: the page, the summary, the
 // trend chart (of 300 parts).
+// The server without its rate limit: these measure a request, not the limiter.
+HttpServerOptions Unlimited() {
+  HttpServerOptions o;
+  o.max_requests_per_s = 1e9;
+  return o;
+}
+
 void BM_PageLoad(benchmark::State& state) {
-  StationHttpServer server({}, BenchSummary(), {});
+  StationHttpServer server(Unlimited(), BenchSummary(), {});
   for (const StationRecord& r : SomeRecords(state, 300)) server.Publish(r, {});
   for (auto _ : state) {
     httplib::Client client("127.0.0.1", server.Port());
-    for (const char* path : {"/", "/api/summary", "/api/trend.svg"}) {
+    for (const char* path : {"/", "/api/summary", "/api/trend.svg", "/api/moving-range.svg"}) {
       const auto res = client.Get(path);
-      if (!res || res->status != 200) state.SkipWithError(fmt::format("GET {} failed", path).c_str());
+      if (!res || res->status != 200)
+        state.SkipWithError(fmt::format("GET {} failed: {}", path, res ? std::to_string(res->status) + " " + res->body
+                                                                          : httplib::to_string(res.error()))
+                                .c_str());
     }
   }
-  state.SetLabel("GET /, /api/summary, /api/trend.svg on a new connection (300 parts in the trend)");
+  state.SetLabel("GET /, /api/summary and the two charts on a new connection (300 parts in the trend)");
 }
 BENCHMARK(BM_PageLoad)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // A commit, then the page's next poll (keep-alive, as the browser's): the poll's own time.
 void BM_PollAfterACommit(benchmark::State& state) {
-  StationHttpServer server({}, BenchSummary(), {});
+  StationHttpServer server(Unlimited(), BenchSummary(), {});
   std::vector<StationRecord> records = SomeRecords(state, 300);
   for (const StationRecord& r : records) server.Publish(r, {});
   httplib::Client client("127.0.0.1", server.Port());
@@ -237,8 +247,8 @@ void BM_PollAfterACommit(benchmark::State& state) {
 }
 BENCHMARK(BM_PollAfterACommit)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The page as a browser runs it: /api/summary every second, the trend chart when a new part
-// is in it, until destroyed.
+// The page as a browser runs it: /api/summary every second, the two charts and the part's
+// image when a new part is in it, until destroyed.
 class OpenPage {
  public:
   explicit OpenPage(int port) : thread_([this, port] { Run(port); }) {}
@@ -254,7 +264,8 @@ class OpenPage {
     std::string last;
     while (!stop_) {
       const auto res = client.Get("/api/summary");
-      if (res && res->body != last) client.Get("/api/trend.svg");
+      if (res && res->body != last)
+        for (const char* chart : {"/api/trend.svg", "/api/moving-range.svg"}) client.Get(chart);
       if (res) last = res->body;
       for (int i = 0; i < 100 && !stop_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }

@@ -167,15 +167,18 @@ void StationHttpServer::Route() {
   server_->Get("/api/summary", [this](const Request&, Response& res) {
     res.set_content(JsonText(Summary()), "application/json");
   });
-  server_->Get("/api/trend.svg", [this](const Request&, Response& res) {
-    std::string svg;
-    {
-      std::lock_guard lock(mutex_);
-      svg = summary_.TrendSvg();
-    }
-    res.set_header("Cache-Control", "no-store");
-    res.set_content(svg, "image/svg+xml");
-  });
+  for (const auto& [path, which] : {std::pair{"/api/trend.svg", LiveSummary::TrendChart::kIndividuals},
+                                     std::pair{"/api/moving-range.svg", LiveSummary::TrendChart::kMovingRange}}) {
+    server_->Get(path, [this, which = which](const Request&, Response& res) {
+      std::string svg;
+      {
+        std::lock_guard lock(mutex_);
+        svg = summary_.TrendSvg(which);
+      }
+      res.set_header("Cache-Control", "no-store");
+      res.set_content(svg, "image/svg+xml");
+    });
+  }
   server_->Get(R"(/api/parts/(\d{1,18})/image.jpg)", [this](const Request& req, Response& res) {
     const int64_t sequence = std::stoll(req.matches[1]);
     std::string jpeg;
@@ -256,7 +259,7 @@ void StationHttpServer::Route() {
   server_->set_error_handler([](const Request& req, Response& res) {
     if (res.status == 404 && res.body.empty())
       Reply(res, 404, "not found: " + req.path + " (the station serves /, /api/summary, /api/trend.svg, "
-                      "/api/parts and POST /api/recipe)");
+                      "/api/moving-range.svg, /api/parts and POST /api/recipe)");
   });
 }
 

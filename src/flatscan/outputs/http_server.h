@@ -16,6 +16,7 @@
 //                          latest first], "health": what the station reports (cameras,
 //                          store, outputs, calibration files, active recipe)}
 //   GET  /api/trend.svg    the trend as an individuals control chart (SVG)
+//   GET  /api/moving-range.svg  its moving-range chart (the MR of the I-MR pair)
 //   GET  /api/parts/N/image.jpg  the part's thumbnail (inspection_report.h, DrawRimThumbnail),
 //                          kept for the last part and the last 10 fails and not-measured
 //                          parts (404 otherwise)

@@ -113,6 +113,10 @@ TEST(StationHttpServer, ServesTheCountsAndTheLastRecordAsTheyAreCommitted) {
   EXPECT_EQ(trend.status, 200);
   EXPECT_EQ(trend.content_type, "image/svg+xml");
   EXPECT_NE(trend.body.find("polyline"), std::string::npos);  // 4 measured values
+  const Reply mr = Get(server.Port(), "/api/moving-range.svg");
+  EXPECT_EQ(mr.status, 200);
+  EXPECT_EQ(mr.content_type, "image/svg+xml");
+  EXPECT_NE(mr.body.find(">MRbar "), std::string::npos) << mr.body;
 }
 
 // Bad requests get their status and a reason; the records come from the store itself.
@@ -148,8 +152,8 @@ TEST(StationHttpServer, AnswersBadRequestsClearly) {
   EXPECT_EQ(Get(port, "/api/parts?sort=x").status, 400);
   const Reply missing = Get(port, "/part/123");
   EXPECT_EQ(missing.status, 404);
-  EXPECT_EQ(missing.body, "not found: /part/123 (the station serves /, /api/summary, /api/trend.svg, /api/parts and "
-                          "POST /api/recipe)\n");
+  EXPECT_EQ(missing.body, "not found: /part/123 (the station serves /, /api/summary, /api/trend.svg, "
+                          "/api/moving-range.svg, /api/parts and POST /api/recipe)\n");
   // Read-only: without a token set at start, a recipe change is refused.
   const Reply read_only = PostRecipe(port, R"({"recipe": "a"})", "guess");
   EXPECT_EQ(read_only.status, 403);

@@ -114,12 +114,13 @@ nlohmann::json LiveSummary::ToJson(SystemTime now) {
           {"recent_problems", problems}};
 }
 
-std::string LiveSummary::TrendSvg() const {
+std::string LiveSummary::TrendSvg(TrendChart which) const {
   if (trend_.size() < 2)
     return R"(<svg xmlns="http://www.w3.org/2000/svg" width="640" height="40"><text x="8" y="24">)"
            "the trend starts at the second measured part</text></svg>";
   const std::vector<double> values(trend_.begin(), trend_.end());
   const IndividualsChart chart = ComputeIndividualsChart(values);
+  if (which == TrendChart::kMovingRange) return MovingRangeChartSvg(chart);
   return ControlChartSvg(values, chart, tolerance_mm_, WesternElectricSignals(values, chart));
 }
 

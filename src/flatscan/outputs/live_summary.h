@@ -36,9 +36,10 @@ class LiveSummary {
 
   // The figures of /api/summary at `now` (http_server.h lists the keys).
   nlohmann::json ToJson(SystemTime now);
-  // The trend as an individuals chart (SVG) of the last values with the tolerance; a line
-  // of text while fewer than 2 parts were measured.
-  std::string TrendSvg() const;
+  // The trend as an I-MR pair (SVG): the individuals chart of the last values with the
+  // tolerance, or their moving ranges; a line of text while fewer than 2 parts were measured.
+  enum class TrendChart { kIndividuals, kMovingRange };
+  std::string TrendSvg(TrendChart which = TrendChart::kIndividuals) const;
 
  private:
   void Remember(const StationRecord& record);

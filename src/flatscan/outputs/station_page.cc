@@ -31,8 +31,8 @@ table{border-collapse:collapse}td,th{padding:3px 10px;text-align:left;border-bot
 <tr id="c-store"><th>whole store</th><td></td><td></td><td></td><td></td><td></td><td></td></tr>
 <tr id="c-shift"><th>shift</th><td></td><td></td><td></td><td></td><td></td><td></td></tr>
 <tr id="c-start"><th>since start</th><td></td><td></td><td></td><td></td><td></td><td></td></tr></table></div></div>
-<h2>Trend: the last flatness values (mm), individuals chart, tolerance in red</h2>
-<img id="trend" alt="trend" src="/api/trend.svg">
+<h2>Trend: the last flatness values (mm), individuals and moving-range charts, tolerance in red</h2>
+<img id="trend" alt="trend" src="/api/trend.svg"><br><img id="mr" alt="moving range" src="/api/moving-range.svg">
 <div class="row"><div><h2>Recent fails and not measured</h2>
 <table id="problems"><tr><th>#</th><th>time (UTC)</th><th>part</th><th>verdict</th><th>why</th><th>image</th></tr>
 </table></div>
@@ -113,6 +113,7 @@ function show(s) {
     $('flatness').textContent = r.error;
   }
   $('trend').src = '/api/trend.svg?after=' + r.sequence;
+  $('mr').src = '/api/moving-range.svg?after=' + r.sequence;
 }
 function poll() {
   fetch('/api/summary').then(r => r.json()).then(show).catch(() => {}).finally(() => setTimeout(poll, 1000));

@@ -61,14 +61,14 @@ std::string Capability(const RecipeReport& r) {
   const UpperCapability& c = *r.capability;
   const IndividualsChart& i = *r.chart;
   std::string out = "<table>" + Row({"n", "mean (mm)", "sigma within (MRbar/1.128)", "sigma overall", "Cpu", "Ppu",
-                                     "UCL (mm)", "MRbar (mm)"},
+                                     "UCL (mm)", "MRbar (mm)", "MR UCL (mm)"},
                                     true);
   out += Row({std::to_string(c.n), fmt::format("{:.4f}", c.mean), fmt::format("{:.4f}", c.sigma_within),
               fmt::format("{:.4f}", c.sigma_overall), fmt::format("{:.2f}", c.cpu), fmt::format("{:.2f}", c.ppu),
-              fmt::format("{:.4f}", i.ucl), fmt::format("{:.4f}", i.mr_bar)});
+              fmt::format("{:.4f}", i.ucl), fmt::format("{:.4f}", i.mr_bar), fmt::format("{:.4f}", i.mr_ucl)});
   out += "</table>\n<p class=\"note\">Cpu = (USL - mean) / (3 sigma within), Ppu = (USL - mean) / (3 sigma overall), "
          "USL the tolerance; flatness has no lower limit (docs/spc.md).</p>\n";
-  out += ControlChartSvg(r.flatness_mm, i, r.tolerance_mm, r.signals);
+  out += ControlChartSvg(r.flatness_mm, i, r.tolerance_mm, r.signals) + MovingRangeChartSvg(i);
   if (r.signals.empty()) out += "<p>No Western Electric rule fires.</p>\n";
   else {
     out += fmt::format("<p class=\"fail\">{} Western Electric signal(s):</p><ul>\n", r.signals.size());

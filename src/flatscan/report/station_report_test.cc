@@ -113,7 +113,7 @@ TEST(StationReport, TheHtmlIsOneFileWithItsChartsAndEscapesWhatItQuotes) {
   EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
   size_t svgs = 0;
   for (size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++svgs;
-  EXPECT_EQ(svgs, 4u);  // a control chart and a histogram for each recipe
+  EXPECT_EQ(svgs, 6u);  // an I chart, an MR chart and a histogram for each recipe
   EXPECT_NE(html.find("&lt;p6&amp;&gt;"), std::string::npos);
   EXPECT_EQ(html.find("<p6&>"), std::string::npos);
   EXPECT_NE(html.find("flatscan report --store &lt;s&gt;"), std::string::npos);

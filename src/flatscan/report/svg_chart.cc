@@ -71,6 +71,28 @@ std::string ControlChartSvg(const std::vector<double>& values, const Individuals
   return out + "</svg>\n";
 }
 
+std::string MovingRangeChartSvg(const IndividualsChart& chart) {
+  const std::vector<double>& mr = chart.moving_ranges;
+  const double top = std::max(chart.mr_ucl, mr.empty() ? 0.0 : *std::max_element(mr.begin(), mr.end()));
+  // Positions 2..n: a moving range belongs to the later of its two parts.
+  const Frame f{1, std::max<double>(2, double(mr.size() + 1)), 0, std::max(top, 1e-9) * 1.05};
+  std::string out = Open() + YAxis(f, false);
+  out += Level(f, chart.mr_ucl, "#777", "5,3", fmt::format("UCL {:.3f}", chart.mr_ucl));
+  out += Level(f, chart.mr_bar, "#777", "none", fmt::format("MRbar {:.3f}", chart.mr_bar));
+  std::string points;
+  for (size_t i = 0; i < mr.size(); ++i) points += fmt::format("{:.1f},{:.1f} ", f.X(double(i + 2)), f.Y(mr[i]));
+  out += fmt::format("<polyline fill=\"none\" stroke=\"#1f5fa8\" stroke-width=\"1.2\" points=\"{}\"/>\n", points);
+  for (size_t i = 0; i < mr.size(); ++i)
+    if (mr[i] > chart.mr_ucl)
+      out += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"4\" fill=\"none\" stroke=\"#c00\"><title>parts {}-{}: "
+                         "moving range {:.4f} mm beyond its limit</title></circle>\n",
+                         f.X(double(i + 2)), f.Y(mr[i]), i + 1, i + 2, mr[i]);
+  out += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" text-anchor=\"middle\">moving range of consecutive parts "
+                     "(mm)</text>\n",
+                     (kLeft + kWidth - kRight) / 2, kHeight - 8);
+  return out + "</svg>\n";
+}
+
 std::string HistogramSvg(const std::vector<double>& values, double tolerance_mm) {
   constexpr int kBins = 20;
   const double top = 1.05 * std::max(tolerance_mm, values.empty() ? 0.0 : *std::max_element(values.begin(), values.end()));

@@ -1,6 +1,6 @@
 #pragma once
 // The report's charts as inline SVG text (no script, no external file): an individuals
-// control chart and a histogram, each against the upper specification limit.
+// and moving-range control chart pair and a histogram against the upper specification limit.
 #include <string>
 #include <vector>
 
@@ -13,6 +13,11 @@ namespace flatscan {
 // a tooltip). Values in mm.
 std::string ControlChartSvg(const std::vector<double>& values, const IndividualsChart& chart, double tolerance_mm,
                             const std::vector<RuleSignal>& signals);
+
+// The moving ranges |x_i - x_(i-1)| of the same values (the MR chart of an I-MR pair): the
+// centre MRbar and the upper limit D4 MRbar (the lower one is 0), ranges beyond it circled
+// in red. Values in mm; needs 2 values or more (the chart's).
+std::string MovingRangeChartSvg(const IndividualsChart& chart);
 
 // 20 bins from 0 to a little above the larger of the tolerance and the largest value,
 // with the tolerance line.
