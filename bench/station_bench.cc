@@ -28,6 +28,7 @@
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
 
+#include "flatscan/inspection/inspection_report.h"
 #include "flatscan/io/image_io.h"
 #include "flatscan/outputs/http_server.h"
 #include "flatscan/station/inspection_station.h"
@@ -111,7 +112,8 @@ class HttpLoad {
 };
 
 // One station run over the pairs file, timed from its start to its last commit; `extra`
-// also gets every record (nullptr: none).
+// also gets every record (nullptr: none). With a web server (`extra`), each part also gets
+// its thumbnail, as `flatscan station --http` makes them.
 double TimedStationRun(benchmark::State& state, RecordPublisher* extra) {
   const Files& f = TheFiles();
   fs::remove(f.dir / "results.db");
@@ -119,6 +121,7 @@ double TimedStationRun(benchmark::State& state, RecordPublisher* extra) {
   auto source = MakePairsFileSource(f.dir / "pairs.csv");
   StationOptions options;
   options.until_idle_s = 0;
+  if (extra) options.thumbnail_width = 480;
   InspectionStation station({f.recipe}, *source, *store, options);
   LastCommit last;
   station.AddPublisher(&last);
@@ -204,6 +207,20 @@ std::vector<StationRecord> SomeRecords(benchmark::State& state, size_t count) {
 
 // Loading the page as a browser does on a fresh connection: the page, the summary, the
 // trend chart (of 300 parts).
+// A part's thumbnail (crop, scale to 480, colour the rim, JPEG) from a paper-preset pair
+// measured once: the CPU `--http` or `--archive` adds to each part's measuring.
+void BM_Thumbnail(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const PaperPair pair = RenderPaperPair();
+  const LoadedRecipe& r = pair.recipe;
+  const InspectionResult result = InspectPart(r.rig, r.plane, pair.left, pair.right, r.recipe.params);
+  size_t bytes = 0;
+  for (auto _ : state) bytes = EncodeJpeg(DrawRimThumbnail(pair.left, &result, r.recipe.spec, 480)).size();
+  state.counters["jpeg_kB"] = double(bytes) / 1024;
+  state.SetLabel("DrawRimThumbnail + EncodeJpeg, one thread");
+}
+BENCHMARK(BM_Thumbnail)->Unit(benchmark::kMillisecond);
+
 // The server without its rate limit: these measure a request, not the limiter.
 HttpServerOptions Unlimited() {
   HttpServerOptions o;
@@ -264,8 +281,12 @@ class OpenPage {
     std::string last;
     while (!stop_) {
       const auto res = client.Get("/api/summary");
-      if (res && res->body != last)
+      if (res && res->body != last) {
         for (const char* chart : {"/api/trend.svg", "/api/moving-range.svg"}) client.Get(chart);
+        const auto summary = nlohmann::json::parse(res->body, nullptr, false);
+        if (summary.is_object() && summary["last"].is_object())
+          client.Get(fmt::format("/api/parts/{}/image.jpg", summary["last"]["sequence"].get<int64_t>()));
+      }
       if (res) last = res->body;
       for (int i = 0; i < 100 && !stop_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
