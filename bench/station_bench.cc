@@ -80,6 +80,7 @@ class LastCommit : public RecordPublisher {
 // [0] decoding alone, [1] the station, [2] under HTTP load from a client at nice 0, [3] at nice 19
 double pairs_per_s[4] = {0, 0, 0, 0};
 double requests_per_s[4] = {0, 0, 0, 0};  // answered during [2] and [3]
+double interleaved_ratio[2] = {0, 0};       // BM_LoadRatioInterleaved: client at nice 0, at nice 19
 
 // A client on loopback asking /api/summary at `per_s` (keep-alive) at priority `nice`,
 // until destroyed.
@@ -188,6 +189,35 @@ void BM_StationWithItsPageUnder1000RequestsPerSecond(benchmark::State& state) {
 }
 BENCHMARK(BM_StationWithItsPageUnder1000RequestsPerSecond)->Arg(0)->Arg(19)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The same three runs interleaved (alone, under load from a client at nice 0, at nice 19)
+// and repeated: a drift of the machine's speed over the benchmark (this VM's rate alone
+// varies by 10 % from one minute to the next) falls on the three alike. The ratios are of
+// the summed times.
+void BM_LoadRatioInterleaved(benchmark::State& state) {
+  tbb::global_control two_threads(tbb::global_control::max_allowed_parallelism, 2);
+  cv::setNumThreads(1);
+  spdlog::set_level(spdlog::level::warn);
+  double alone = 0, nice0 = 0, nice19 = 0, server_cpu0 = 0;
+  for (auto _ : state) {
+    alone += TimedStationRun(state, nullptr);
+    for (const int nice : {0, 19}) {
+      StationHttpServer server({}, BenchSummary(), {});
+      HttpLoad load(server.Port(), 1000, nice);
+      const double seconds = TimedStationRun(state, &server);
+      (nice == 0 ? nice0 : nice19) += seconds;
+      if (nice == 0) server_cpu0 += server.Cpu().serving_s;  // to the end of the load, a little past the run
+    }
+  }
+  state.counters["ratio_nice0"] = alone / nice0;
+  state.counters["ratio_nice19"] = alone / nice19;
+  // The server's threads' share of the two cores while answering the load (nice 0 runs).
+  state.counters["server_share_of_2_cores"] = server_cpu0 / (2 * nice0);
+  interleaved_ratio[0] = alone / nice0;
+  interleaved_ratio[1] = alone / nice19;
+  state.SetLabel("rate under 1,000 requests/s over the rate alone, runs interleaved");
+}
+BENCHMARK(BM_LoadRatioInterleaved)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Records as the station commits them: one station run's, renumbered to `count`.
 std::vector<StationRecord> SomeRecords(benchmark::State& state, size_t count) {
   class Keep : public RecordPublisher {
@@ -215,11 +245,21 @@ void BM_Thumbnail(benchmark::State& state) {
   const LoadedRecipe& r = pair.recipe;
   const InspectionResult result = InspectPart(r.rig, r.plane, pair.left, pair.right, r.recipe.params);
   size_t bytes = 0;
-  for (auto _ : state) bytes = EncodeJpeg(DrawRimThumbnail(pair.left, &result, r.recipe.spec, 480)).size();
+  const int width = int(state.range(0));
+  for (auto _ : state) bytes = EncodeJpeg(DrawRimThumbnail(pair.left, &result, r.recipe.spec, width)).size();
   state.counters["jpeg_kB"] = double(bytes) / 1024;
   state.SetLabel("DrawRimThumbnail + EncodeJpeg, one thread");
 }
-BENCHMARK(BM_Thumbnail)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Thumbnail)->Arg(480)->Arg(360)->Unit(benchmark::kMillisecond);
+
+void BM_ThumbnailDrawingOnly(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const PaperPair pair = RenderPaperPair();
+  const LoadedRecipe& r = pair.recipe;
+  const InspectionResult result = InspectPart(r.rig, r.plane, pair.left, pair.right, r.recipe.params);
+  for (auto _ : state) benchmark::DoNotOptimize(DrawRimThumbnail(pair.left, &result, r.recipe.spec, 480).data);
+}
+BENCHMARK(BM_ThumbnailDrawingOnly)->Unit(benchmark::kMillisecond);
 
 // The server without its rate limit: these measure a request, not the limiter.
 HttpServerOptions Unlimited() {
@@ -335,6 +375,9 @@ int main(int argc, char** argv) {
                   "rate without\n",
                   flatscan::requests_per_s[slot], slot == 2 ? 0 : 19, flatscan::pairs_per_s[slot],
                   flatscan::pairs_per_s[slot] / flatscan::pairs_per_s[1]);
+  if (flatscan::interleaved_ratio[0] > 0)
+    std::printf("interleaved runs: under load %.3f of the rate alone (client at nice 0), %.3f (client at nice 19)\n",
+                flatscan::interleaved_ratio[0], flatscan::interleaved_ratio[1]);
   std::filesystem::remove_all(std::filesystem::temp_directory_path() / "flatscan_station_bench");
   return 0;
 }

@@ -94,8 +94,15 @@ cv::Mat3b DrawRimThumbnail(const cv::Mat1b& left, const InspectionResult* r, con
   const cv::Rect box = r ? PartBox(*r, left.size()) : cv::Rect(0, 0, left.cols, left.rows);
   // Up to max_width wide and 3/4 of it high, at most twice the camera's resolution.
   const double scale = std::min({double(max_width) / box.width, 0.75 * max_width / box.height, 2.0});
-  cv::Mat1b grey;
-  cv::resize(left(box), grey, cv::Size(), scale, scale, cv::INTER_AREA);
+  // Halving with pyrDown (a 5x5 Gaussian, SIMD) while the scale is below one half, then
+  // area averaging to the size: a fraction of one large non-integer INTER_AREA's time.
+  cv::Mat1b reduced = left(box), grey;
+  double remaining = scale;
+  while (remaining < 0.5) {
+    cv::pyrDown(reduced, reduced);
+    remaining *= 2;
+  }
+  cv::resize(reduced, grey, cv::Size(cvRound(box.width * scale), cvRound(box.height * scale)), 0, 0, cv::INTER_AREA);
   cv::Mat3b out;
   cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
   if (!r) return out;
