@@ -165,7 +165,7 @@ void StationHttpServer::Route() {
     res.set_content(std::string(StationPageHtml()), "text/html; charset=utf-8");
   });
   server_->Get("/api/summary", [this](const Request&, Response& res) {
-    res.set_content(JsonText(Summary()), "application/json");
+    res.set_content(SummaryText(), "application/json");
   });
   for (const auto& [path, which] : {std::pair{"/api/trend.svg", LiveSummary::TrendChart::kIndividuals},
                                      std::pair{"/api/moving-range.svg", LiveSummary::TrendChart::kMovingRange}}) {
@@ -271,12 +271,29 @@ nlohmann::json StationHttpServer::Summary() {
   return s;
 }
 
+std::string StationHttpServer::SummaryText() {
+  const auto now = std::chrono::steady_clock::now();
+  const uint64_t version = version_.load();
+  {
+    std::lock_guard lock(cache_mutex_);
+    if (!summary_text_.empty() && summary_version_ == version && now - summary_time_ < kSummaryMaxAge)
+      return summary_text_;
+  }
+  std::string text = JsonText(Summary());
+  std::lock_guard lock(cache_mutex_);
+  summary_text_ = text;
+  summary_version_ = version;
+  summary_time_ = now;
+  return text;
+}
+
 void StationHttpServer::Publish(const StationRecord& record, const StationCounts&) {
   const double start = ThisThreadsCpuSeconds();
   {
     std::lock_guard lock(mutex_);
     summary_.AddNew(record, std::chrono::system_clock::now());
   }
+  ++version_;
   std::lock_guard lock(cpu_mutex_);
   publishing_s_ += ThisThreadsCpuSeconds() - start;
 }
@@ -300,6 +317,7 @@ void StationHttpServer::PublishImage(const StationRecord& record, const std::str
 void StationHttpServer::Readiness(bool ready, const std::string& reason, const StationCounts&) {
   std::lock_guard lock(mutex_);
   summary_.SetReadiness(ready, reason);
+  ++version_;
 }
 
 }  // namespace flatscan

@@ -33,6 +33,8 @@
 // Requests beyond max_requests_per_s (a token bucket over all clients) get 429 at once, and
 // the server's two worker threads run at a lower CPU priority (nice 10) than measuring: a
 // page left open, or a misbehaving client on the network, cannot slow the line.
+#include <atomic>
+#include <chrono>
 #include <ctime>
 #include <deque>
 #include <functional>
@@ -88,6 +90,11 @@ class StationHttpServer : public RecordPublisher {
 
   int Port() const { return port_; }
   nlohmann::json Summary();
+  // Summary() as the text /api/summary answers: made again after a Publish or Readiness,
+  // otherwise at most every kSummaryMaxAge (the rate, the shift and the health change with
+  // time), so that many pages, or a flood of requests, cost one JSON build per period.
+  std::string SummaryText();
+  static constexpr std::chrono::milliseconds kSummaryMaxAge{250};
 
   void Publish(const StationRecord& record, const StationCounts& counts) override;
   void PublishImage(const StationRecord& record, const std::string& jpeg) override;
@@ -121,6 +128,11 @@ class StationHttpServer : public RecordPublisher {
   std::mutex bucket_mutex_;  // apart: a flood of refused requests does not hold up Publish()
   double bucket_ = 0;
   std::chrono::steady_clock::time_point bucket_time_;
+  std::atomic<uint64_t> version_{0};  // counts Publish and Readiness calls
+  std::mutex cache_mutex_;           // guards the three below
+  std::string summary_text_;
+  uint64_t summary_version_ = 0;
+  std::chrono::steady_clock::time_point summary_time_;
   std::mutex cpu_mutex_;  // guards the two below
   std::vector<clockid_t> thread_clocks_;  // the listening thread's and every worker's
   double publishing_s_ = 0;

@@ -4,6 +4,9 @@
 
 #include <httplib.h>
 
+#include <atomic>
+#include <thread>
+
 #include <gtest/gtest.h>
 
 #include "flatscan/store/store_test_util.h"
@@ -73,6 +76,32 @@ TEST(StationHttpServer, KeepsTheImagesOfTheLastPartAndOfTheRecentProblems) {
   EXPECT_EQ(r.body, "no image of part 2: the page keeps the last part's and those of the last 10 fails and "
                     "not-measured parts\n");
   EXPECT_EQ(Get(server.Port(), "/api/parts/x/image.jpg").status, 404);
+}
+
+// A flood of polls costs one summary per period: the health is asked once for requests
+// within kSummaryMaxAge, again after a commit and after the period.
+TEST(StationHttpServer, BuildsTheSummaryOncePerPeriodOrCommit) {
+  std::atomic<int> asked{0};
+  StationHooks hooks;
+  hooks.health = [&] {
+    ++asked;
+    return nlohmann::json::object();
+  };
+  HttpServerOptions unlimited;
+  unlimited.max_requests_per_s = 1e6;
+  StationHttpServer server(unlimited, Summary("line-1"), hooks);
+  const auto start = std::chrono::steady_clock::now();
+  const std::string first = Get(server.Port(), "/api/summary").body;
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(Get(server.Port(), "/api/summary").body, first);
+  const auto periods = (std::chrono::steady_clock::now() - start) / StationHttpServer::kSummaryMaxAge;
+  EXPECT_LE(asked.load(), 1 + int(periods) + 1);  // once per period begun (1 here, more under a sanitizer)
+  const int before = asked.load();
+  server.Publish(testing::TestRecord("p1", std::string(64, 'a'), 0.05), {});
+  EXPECT_NE(Get(server.Port(), "/api/summary").body.find("\"p1\""), std::string::npos);
+  EXPECT_EQ(asked.load(), before + 1);
+  std::this_thread::sleep_for(StationHttpServer::kSummaryMaxAge + std::chrono::milliseconds(50));
+  Get(server.Port(), "/api/summary");
+  EXPECT_EQ(asked.load(), before + 2);
 }
 
 TEST(StationHttpServer, ServesTheCountsAndTheLastRecordAsTheyAreCommitted) {
