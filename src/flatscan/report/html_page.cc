@@ -44,7 +44,7 @@ const char* ReportStyle() {
          // Smaller type and charts on paper: a recipe with a few listed parts fits one page (ten
          // worst and ten not-measured parts take two).
          "@page{size:A4;margin:12mm}@media print{body{margin:0;font-size:10pt}h2{margin-top:8px}td,th{padding:1px 5px}"
-         "svg{height:170px;width:auto}.recipe{break-before:page}table,svg,img{break-inside:avoid}}";
+         "svg{height:115px;width:auto}.recipe{break-before:page}table,svg,img{break-inside:avoid}}";
 }
 
 std::string HtmlPage(const std::string& title, const std::string& body_html) {

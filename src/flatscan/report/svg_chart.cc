@@ -8,7 +8,7 @@
 namespace flatscan {
 namespace {
 
-constexpr double kWidth = 720, kHeight = 240;
+constexpr double kWidth = 720, kHeight = 190;
 constexpr double kLeft = 60, kRight = 110, kTop = 12, kBottom = 30;  // margins: labels on the left and right
 
 // Maps values to the plot area.
