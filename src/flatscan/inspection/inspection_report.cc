@@ -117,7 +117,7 @@ cv::Mat3b DrawRimThumbnail(const cv::Mat1b& left, const InspectionResult* r, con
   if (highest) {
     cv::circle(out, at(*highest), 9, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
     cv::circle(out, at(*highest), 9, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-    Label(out, fmt::format("highest {:.3f} mm", highest->height_mm), at(*highest) + cv::Point(12, -10));
+    Label(out, fmt::format("highest seen {:.3f} mm", highest->height_mm), at(*highest) + cv::Point(12, -10));
   }
   DrawLegend(out, spec.tolerance_mm);
   return out;

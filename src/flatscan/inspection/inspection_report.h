@@ -24,7 +24,9 @@ cv::Mat3b DrawHeightOverlay(const cv::Mat1b& image, const InspectionResult& resu
 // to the part (its rim points and a margin) and scaled to at most `max_width` pixels, the
 // rim points coloured by height on a fixed scale from 0 to twice the tolerance (the same
 // colours for every part of a recipe: blue 0, green at the tolerance, red at twice it and
-// above), the highest point ringed and labelled, and a legend bar along the bottom.
+// above), the highest point seen ringed and labelled ("highest seen": flatness_mm also
+// counts the stretches completed from the warp model, so it can be higher), and a legend
+// bar along the bottom.
 // `result` nullptr (a part not measured): the whole image scaled, without points.
 cv::Mat3b DrawRimThumbnail(const cv::Mat1b& left, const InspectionResult* result, const FlatnessSpec& spec,
                            int max_width = 480);
