@@ -21,6 +21,7 @@ PACKAGES=(
   chromium                                          # headless browser: the web page test, report --pdf, screenshots
   libcmark-gfm-dev libcmark-gfm-extensions-dev      # Markdown (with tables) to HTML: the evaluate study's report.html
   openssl                                           # self-signed certificates for the TLS tests (MQTT, PostgreSQL)
+  libboost-math-dev                                 # Boost.Math: F and t distributions, the gauge studies' p-values (gauge/)
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-14 libclang-rt-14-dev                       # scripts/fuzz.sh: libFuzzer (the corpora replay under ctest with g++)
 )

@@ -28,14 +28,6 @@ double ThreadCpuMs() {
   return 1e3 * ts.tv_sec + 1e-6 * ts.tv_nsec;
 }
 
-// One pair to render and inspect.
-struct ShotJob {
-  std::string id;
-  PartGeometry geometry;
-  PlacedShot shot;
-  uint64_t noise_seed = 0;
-};
-
 // The pair with the image defects the station's scene turns on (none by default),
 // drawn from their own seed so that the parts and their noise do not change with them.
 std::array<cv::Mat1b, 2> RenderShot(const CalibratedStation& station, const ShotJob& job) {
@@ -98,13 +90,6 @@ std::vector<PartMeasurement> MeasureInParallel(size_t count, const std::function
   return out;
 }
 
-// Renders and measures every job.
-std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
-                                          const StudyOptions& options, const StudyProgress& progress) {
-  return MeasureInParallel(
-      jobs.size(), [&](size_t i) { return MeasureShot(station, jobs[i], options); }, progress);
-}
-
 // Nearest-rank percentile of sorted values, q in (0, 1].
 double Percentile(const std::vector<double>& sorted, double q) {
   if (sorted.empty()) return 0;
@@ -124,13 +109,6 @@ double MedianInspectMs(const std::vector<PartMeasurement>& parts) {
   for (const PartMeasurement& p : parts)
     if (p.measured) ms.push_back(p.inspect_ms);
   return Median(ms);
-}
-
-// Station whose dataset spec asks for `shots` placements per part.
-Station WithShots(const Station& station, int shots) {
-  Station out = station;
-  out.scene.dataset.shots = shots;
-  return out;
 }
 
 // Inverse of the standard normal CDF by bisection on erfc (|error| < 1e-12).
@@ -159,6 +137,18 @@ RenderedPart Rendered(const CalibratedStation& station, const ShotJob& job, int 
 }
 
 }  // namespace
+
+std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
+                                          const StudyOptions& options, const StudyProgress& progress) {
+  return MeasureInParallel(
+      jobs.size(), [&](size_t i) { return MeasureShot(station, jobs[i], options); }, progress);
+}
+
+Station WithShots(const Station& station, int shots) {
+  Station out = station;
+  out.scene.dataset.shots = shots;
+  return out;
+}
 
 RenderedPart RenderRepeatShot(const CalibratedStation& station, const RepeatStudyOptions& options, int index) {
   return Rendered(station, RepeatJobs(station.truth, options).at(index), index);

@@ -50,6 +50,22 @@ struct StudyOptions {
   InspectionParams inspection;  // thickness_mm is set per part
 };
 
+// One pair to render and inspect: the studies' unit of work.
+struct ShotJob {
+  std::string id;
+  PartGeometry geometry;
+  PlacedShot shot;
+  uint64_t noise_seed = 0;  // the pair's sensor noise and image defects derive from it
+};
+
+// Renders and inspects every job in parallel (results in the jobs' order); a part that
+// cannot be measured keeps the reason in its `error`.
+std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
+                                          const StudyOptions& options, const StudyProgress& progress = {});
+
+// The station with its dataset spec asking for `shots` placements per part.
+Station WithShots(const Station& station, int shots);
+
 // --- repeat study (Table 1) ---
 struct RepeatStudyOptions : StudyOptions {
   int shots = 100;

@@ -51,6 +51,7 @@ std::unique_ptr<Command> MakeStationCommand();
 std::unique_ptr<Command> MakeResultsCommand();
 std::unique_ptr<Command> MakeReportCommand();
 std::unique_ptr<Command> MakeCamerasCommand();
+std::unique_ptr<Command> MakeGaugeCommand();
 
 inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   std::vector<std::unique_ptr<Command>> out;
@@ -69,6 +70,7 @@ inline std::vector<std::unique_ptr<Command>> MakeCommands() {
   out.push_back(MakeResultsCommand());
   out.push_back(MakeReportCommand());
   out.push_back(MakeCamerasCommand());
+  out.push_back(MakeGaugeCommand());
   return out;
 }
 

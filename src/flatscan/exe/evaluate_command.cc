@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "flatscan/evaluation/flatness_study.h"
+#include "flatscan/evaluation/gauge_twin.h"
 #include "flatscan/evaluation/study_report.h"
 #include "flatscan/evaluation/uncertainty_validation.h"
 #include "flatscan/exe/commands.h"
@@ -93,6 +94,22 @@ class EvaluateCommand : public Command {
                            "motion between the exposures)")
               ->check(IntegerIn(1, 100000)),
           "robustness.parts");
+    Fills(sub_->add_option("--gauge", gauge_options_.parts,
+                           "the gauge studies on the twin (docs/gauge.md): gauge R&R of this many parts drawn like "
+                           "the lot, --gauge-trials placements each, on --gauge-stations stations; type 1 (one part, "
+                           "50 placements) and linearity (5 parts over 0.2-1.8 x the tolerance, 10 placements each)")
+              ->check(IntegerIn(5, 1000)),
+          "gauge.parts");
+    Fills(sub_->add_option("--gauge-trials", gauge_options_.trials, "placements of each part in the gauge R&R")
+              ->check(IntegerIn(2, 100))
+              ->default_val(gauge_options_.trials),
+          "gauge.trials");
+    Fills(sub_->add_option("--gauge-stations", gauge_stations_,
+                           "stations standing as the gauge R&R's appraisers, each calibrated from its own images "
+                           "(seeds --seed, --seed + 1, ...); 1: parts x trials")
+              ->check(IntegerIn(1, 10))
+              ->default_val(gauge_stations_),
+          "gauge.stations");
     sub_->add_option("--save-worst", save_worst_,
                      "write the image pairs and truth of the N batch parts (OUT/worst/) and repeat shots "
                      "(OUT/worst_repeat/) with the largest |error| (and any not measured), to look at with `flatscan inspect`")
@@ -106,9 +123,9 @@ class EvaluateCommand : public Command {
 
   int Run() override {
     const bool rotation = rotation_options_.step_deg > 0;
-    if (!repeat_ && batch_options_.parts <= 0 && !rotation && robustness_options_.parts <= 0)
-      ThrowInputError("evaluate: expected --repeat, --batch N, --rotation-step DEG and/or --robustness N (for example: "
-                      "flatscan evaluate --repeat --batch 1000)");
+    if (!repeat_ && batch_options_.parts <= 0 && !rotation && robustness_options_.parts <= 0 && gauge_options_.parts <= 0)
+      ThrowInputError("evaluate: expected --repeat, --batch N, --rotation-step DEG, --robustness N and/or --gauge N "
+                      "(for example: flatscan evaluate --repeat --batch 1000)");
     if (calibrations_ > 1 && batch_options_.parts <= 0)
       ThrowInputError("evaluate: --calibrations {} validates the batch study's uncertainties: give --batch N too",
                       calibrations_);
@@ -117,8 +134,10 @@ class EvaluateCommand : public Command {
     scene.board.poses = calib_poses_;
     rotation_options_.lot = batch_options_.lot;
     robustness_options_.lot = batch_options_.lot;
+    gauge_options_.lot = batch_options_.lot;
     for (StudyOptions* o : {static_cast<StudyOptions*>(&repeat_options_), static_cast<StudyOptions*>(&batch_options_),
-                            static_cast<StudyOptions*>(&rotation_options_), static_cast<StudyOptions*>(&robustness_options_)}) {
+                            static_cast<StudyOptions*>(&rotation_options_), static_cast<StudyOptions*>(&robustness_options_),
+                            static_cast<StudyOptions*>(&gauge_options_)}) {
       o->tolerance_mm = tolerance_;
       o->seed = seed_;
       o->inspection.thickness_correction = !no_correction_;
@@ -209,6 +228,20 @@ class EvaluateCommand : public Command {
           RunRobustnessStudy(station, robustness_options_, RealisticImageEffects(), ProgressLogger("robustness: part"));
       add_section("robustness", RobustnessMarkdown(study, robustness_options_), RobustnessJson(study, robustness_options_));
     }
+    if (gauge_options_.parts > 0) {
+      // The appraisers: this station and --gauge-stations - 1 more, each calibrated from its own images.
+      std::vector<CalibratedStation> others;
+      std::vector<const CalibratedStation*> appraisers = {&station};
+      std::vector<std::string> names = {fmt::format("station_{}", seed_)};
+      others.reserve(gauge_stations_);
+      for (int k = 1; k < gauge_stations_; ++k) {
+        others.push_back(make_station(seed_ + k, root / fmt::format("station_{}", seed_ + k)));
+        appraisers.push_back(&others.back());
+        names.push_back(fmt::format("station_{}", seed_ + k));
+      }
+      const TwinGaugeStudy study = RunTwinGaugeStudy(appraisers, names, gauge_options_, ProgressLogger("gauge: trial"));
+      add_section("gauge", TwinGaugeMarkdown(study, gauge_options_), TwinGaugeJson(study, gauge_options_));
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     json["total_time_s"] = seconds;
     WriteTextFileAtomically(root / "report.md", md);
@@ -246,6 +279,12 @@ class EvaluateCommand : public Command {
     return o;
   }();
   BatchStudyOptions robustness_options_ = batch_options_;  // off unless --robustness
+  TwinGaugeOptions gauge_options_ = [] {
+    TwinGaugeOptions o;
+    o.parts = 0;  // off unless --gauge
+    return o;
+  }();
+  int gauge_stations_ = 1;
 };
 
 }  // namespace

@@ -109,7 +109,7 @@ TEST(EvaluateCommand, BadInputExitsTwoWithoutOutput) {
   const auto out = dir.path() / "eval";
   auto r = RunFlatscan("evaluate -o " + out.string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("evaluate: expected --repeat, --batch N, --rotation-step DEG and/or --robustness N"), std::string::npos)
+  EXPECT_NE(r.err.find("evaluate: expected --repeat, --batch N, --rotation-step DEG, --robustness N and/or --gauge N"), std::string::npos)
       << r.err;
   r = RunFlatscan("evaluate --batch 3 --scene " + (dir.path() / "missing.yml").string() + " -o " + out.string());
   EXPECT_EQ(r.exit_code, 2);

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "flatscan/io/csv_table.h"  // CsvField
+
 namespace flatscan {
 
 struct PairEntry {
@@ -28,10 +30,6 @@ struct PairEntry {
 // the wrong number of fields, an id or path is empty, a thickness is not a number in
 // [0, 5] mm, or it lists no pair. Returned paths are resolved against the CSV's folder.
 std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path);
-
-// One CSV field, quoted where RFC 4180 needs it: a comma, a quote (doubled inside the
-// quotes), a line end, or a space or tab at an end (which a reader would trim).
-std::string CsvField(const std::string& s);
 
 // The file's text: the header (with `thickness` when any entry has one), then one
 // record per entry; fields are quoted where RFC 4180 needs it.

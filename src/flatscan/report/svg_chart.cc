@@ -118,4 +118,24 @@ std::string HistogramSvg(const std::vector<double>& values, double tolerance_mm)
   return out + "</svg>\n";
 }
 
+std::string BlandAltmanSvg(const std::vector<double>& means_mm, const std::vector<double>& differences_um,
+                           double bias_um, double lower_um, double upper_um) {
+  const auto [x_lo, x_hi] = std::minmax_element(means_mm.begin(), means_mm.end());
+  const auto [d_lo, d_hi] = std::minmax_element(differences_um.begin(), differences_um.end());
+  const double y_lo = std::min(*d_lo, lower_um), y_hi = std::max(*d_hi, upper_um);
+  const double y_pad = 0.1 * std::max(y_hi - y_lo, 1e-6), x_pad = 0.05 * std::max(*x_hi - *x_lo, 1e-6);
+  const Frame f{*x_lo - x_pad, *x_hi + x_pad, y_lo - y_pad, y_hi + y_pad};
+  std::string out = Open() + YAxis(f, false);
+  out += Level(f, upper_um, "#777", "5,3", fmt::format("+1.96 sd {:.2f}", upper_um));
+  out += Level(f, bias_um, "#1f5fa8", "none", fmt::format("bias {:.2f}", bias_um));
+  out += Level(f, lower_um, "#777", "5,3", fmt::format("-1.96 sd {:.2f}", lower_um));
+  for (size_t i = 0; i < means_mm.size(); ++i)
+    out += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"#1f5fa8\"/>\n", f.X(means_mm[i]),
+                       f.Y(differences_um[i]));
+  out += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" text-anchor=\"middle\">mean of the two instruments (mm, {:.3f} "
+                     "to {:.3f}); difference measured - reference (um)</text>\n",
+                     (kLeft + kWidth - kRight) / 2, kHeight - 8, *x_lo, *x_hi);
+  return out + "</svg>\n";
+}
+
 }  // namespace flatscan

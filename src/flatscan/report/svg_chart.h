@@ -23,4 +23,9 @@ std::string MovingRangeChartSvg(const IndividualsChart& chart);
 // with the tolerance line.
 std::string HistogramSvg(const std::vector<double>& values, double tolerance_mm);
 
+// A Bland-Altman plot: each part's difference (measured - reference, um) against the mean of
+// the two (mm), with the bias and the two limits of agreement (um) as lines.
+std::string BlandAltmanSvg(const std::vector<double>& means_mm, const std::vector<double>& differences_um,
+                           double bias_um, double lower_um, double upper_um);
+
 }  // namespace flatscan

@@ -1,0 +1,156 @@
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "flatscan/exe/commands.h"
+#include "flatscan/gauge/gauge_data.h"
+#include "flatscan/gauge/gauge_report.h"
+#include "flatscan/io/output_files.h"
+#include "flatscan/report/html_page.h"
+#include "flatscan/report/svg_chart.h"
+#include "flatscan/util/error.h"
+
+namespace flatscan {
+namespace {
+
+// flatscan gauge grr|type1|linearity: measurement system analyses of a gauge's data
+// (docs/gauge.md). Exit 0 when the study ran (its acceptance is in the output), 2 when
+// the data cannot make a study.
+class GaugeCommand : public Command {
+ public:
+  void Register(CLI::App& app) override {
+    sub_ = app.add_subcommand("gauge", "Measurement system analysis (MSA) of a gauge's measurements: gauge R&R by "
+                                       "ANOVA, type 1 (Cg, Cgk), bias and linearity, agreement with a reference.");
+    sub_->require_subcommand(1);
+    sub_->footer("Each study: exit 0 when it ran (its acceptance is in the output), 2 when the data cannot make a "
+                 "study.\nSee docs/gauge.md for the columns, the formulas and the acceptance limits.");
+    grr_ = sub_->add_subcommand("grr", "Crossed gauge R&R by ANOVA (AIAG MSA 4th edition): EV, AV, interaction, GRR, "
+                                       "PV, TV, %GRR of the tolerance and of TV, ndc.");
+    grr_->footer("Example: flatscan gauge grr --data grr.csv --tolerance 0.1 --json grr.json\n"
+                 "The data: columns part,appraiser,trial,value (mm); without appraiser: one station re-seating "
+                 "the part for every trial.");
+    AddCommon(grr_, "a CSV with the columns part,appraiser,trial,value (mm)");
+    Fills(grr_->add_option("--alpha-interaction", grr_options_.alpha_interaction,
+                           "the interaction is pooled into the repeatability when its p-value is above this")
+              ->default_val(grr_options_.alpha_interaction),
+          "alpha_interaction");
+
+    type1_ = sub_->add_subcommand("type1", "Type 1 study (VDA 5): one reference part measured 25-50 times; bias, Cg, "
+                                           "Cgk against the tolerance (limit 1.33).");
+    type1_->footer("Example: flatscan gauge type1 --data type1.csv --tolerance 0.1 --reference 0.0812 --json t1.json");
+    AddCommon(type1_, "a CSV with the column value (mm) and optionally trial and part");
+    Fills(type1_->add_option("--reference", reference_mm_, "the reference part's calibrated value (mm)")->required(),
+          "reference_mm");
+
+    linearity_ = sub_->add_subcommand("linearity", "Bias and linearity over the range (AIAG MSA 4th edition): "
+                                                   "reference parts measured several times each.");
+    linearity_->footer("Example: flatscan gauge linearity --data lin.csv --json lin.json");
+    linearity_->add_option("--data", data_, "a CSV with the columns part,reference,value (mm)")->required();
+    linearity_->add_option("--json", json_, "write the study as JSON");
+    linearity_->add_option("--html", html_, "write the study as an HTML page");
+
+    agreement_ = sub_->add_subcommand("agreement", "Agreement with a reference instrument, part by part "
+                                                   "(Bland-Altman: bias, limits of agreement; correlation).");
+    agreement_->footer("Example: flatscan gauge agreement --data flatscan.csv --reference profiler.csv --tolerance 0.1\n"
+                       "         flatscan gauge agreement --data flatscan.csv --reference-points profiler_points/ "
+                       "--tolerance 0.1 --quantity minzone_mm");
+    AddCommon(agreement_, "a CSV with the columns part,value[,trial] (mm): a part measured several times is "
+                          "compared by its mean");
+    auto* reference = agreement_->add_option("--reference", reference_,
+                                             "the reference's values: a CSV with the columns part and flatness_mm, "
+                                             "lsq_pv_mm and/or minzone_mm (mm)");
+    auto* points = agreement_->add_option("--reference-points", reference_points_,
+                                          "the reference's raw points: a folder of <part>.csv files with the columns "
+                                          "x,y,z (mm, z above the surface plate); flatscan computes the quantity");
+    reference->excludes(points);
+    points->excludes(reference);
+    agreement_->add_option("--quantity", quantity_, "what is compared: flatness_mm, lsq_pv_mm or minzone_mm")
+        ->default_val(quantity_);
+  }
+
+  int Run() override {
+    OutputFiles out({{"--data", data_}, {"--reference", reference_}, {"--reference-points", reference_points_}});
+    out.Declare("--json", json_);
+    out.Declare("--html", html_);
+    nlohmann::json json;
+    std::string markdown, html_extra;
+    if (grr_->parsed()) {
+      grr_options_.tolerance_mm = tolerance_mm_;
+      const std::vector<GaugeObservation> data = ReadGaugeRRCsv(data_);
+      std::vector<double> values;
+      for (const GaugeObservation& o : data) values.push_back(o.value);
+      CheckMillimetres(values, tolerance_mm_, data_);
+      const GaugeRRResult result = AnalyseGaugeRR(data, grr_options_, data_);
+      json = GaugeRRJson(result, grr_options_);
+      markdown = GaugeRRMarkdown(result, grr_options_, data_);
+    } else if (type1_->parsed()) {
+      const Type1Options options{tolerance_mm_, reference_mm_};
+      const std::vector<double> values = ReadType1Csv(data_);
+      CheckMillimetres(values, tolerance_mm_, data_);
+      const Type1Result result = AnalyseType1(values, options, data_);
+      json = Type1Json(result, options);
+      markdown = Type1Markdown(result, options, data_);
+    } else if (agreement_->parsed()) {
+      markdown = RunAgreement(json, html_extra);
+    } else {
+      const LinearityResult result = AnalyseLinearity(ReadLinearityCsv(data_), data_);
+      json = LinearityJson(result);
+      markdown = LinearityMarkdown(result, data_);
+    }
+    json["data"] = data_;
+    out.StageText("--json", json.dump(2) + "\n");
+    out.StageText("--html", HtmlPage("flatscan gauge study", MarkdownToHtml(markdown) + html_extra));
+    out.Commit();
+    std::cout << markdown;
+    return 0;
+  }
+
+ private:
+  // The agreement study; its Bland-Altman plot goes into `html_extra`.
+  std::string RunAgreement(nlohmann::json& json, std::string& html_extra) {
+    const FlatnessQuantity q = ParseFlatnessQuantity(quantity_, "--quantity");
+    if (reference_.empty() && reference_points_.empty())
+      ThrowInputError("gauge agreement: expected --reference FILE or --reference-points FOLDER");
+    const std::string reference_name = reference_.empty() ? reference_points_ : reference_;
+    const ReferenceTable reference =
+        reference_.empty() ? ReadReferencePoints(reference_points_) : ReadReferenceCsv(reference_);
+    const std::vector<GaugeObservation> data = ReadAgreementCsv(data_);
+    std::vector<double> values;
+    for (const GaugeObservation& o : data) values.push_back(o.value);
+    CheckMillimetres(values, tolerance_mm_, data_);
+    const AgreementResult result =
+        AnalyseAgreement(PairWithReference(data, reference, q, data_, reference_name), data_);
+    json = AgreementJson(result, quantity_, tolerance_mm_);
+    json["reference"] = reference_name;
+    std::vector<double> means, differences;
+    for (const AgreementPair& p : result.pairs) {
+      means.push_back(0.5 * (p.measured + p.reference));
+      differences.push_back(1000 * (p.measured - p.reference));
+    }
+    html_extra = "<p>" + BlandAltmanSvg(means, differences, 1000 * result.bias, 1000 * result.lower_loa,
+                                       1000 * result.upper_loa) + "</p>\n";
+    return AgreementMarkdown(result, quantity_, tolerance_mm_, fmt::format("{} against {}", data_, reference_name));
+  }
+
+  void AddCommon(CLI::App* study, const std::string& data_help) {
+    study->add_option("--data", data_, data_help)->required();
+    Fills(study->add_option("--tolerance", tolerance_mm_, "the tolerance T (mm): flatness's upper limit")->required(),
+          "tolerance_mm");
+    study->add_option("--json", json_, "write the study as JSON");
+    study->add_option("--html", html_, "write the study as an HTML page");
+  }
+
+  CLI::App *grr_ = nullptr, *type1_ = nullptr, *linearity_ = nullptr, *agreement_ = nullptr;
+  std::string data_, json_, html_, reference_, reference_points_, quantity_ = "flatness_mm";
+  double tolerance_mm_ = 0, reference_mm_ = 0;
+  GaugeRROptions grr_options_;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> MakeGaugeCommand() { return std::make_unique<GaugeCommand>(); }
+
+}  // namespace flatscan
