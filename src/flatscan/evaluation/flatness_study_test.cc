@@ -101,9 +101,7 @@ namespace {
 // Batch part `index` (seed 1) of `scene`, inspected with the true rig and plane:
 // measured minus true flatness_mm.
 double BatchPartErrorMm(const SceneConfig& scene, int index, double expected_true_mm) {
-  CalibratedStation station{BuildStation(scene), {}, {}};
-  station.rig_report.rig = station.truth.rig;
-  station.plane_report.plane = station.truth.plane;
+  const CalibratedStation station = TrueCalibratedStation(BuildStation(scene));
   BatchStudyOptions options;
   options.seed = 1;
   const RenderedPart r = RenderBatchPart(station, options, index);

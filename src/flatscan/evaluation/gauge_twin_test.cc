@@ -13,10 +13,7 @@ namespace {
 // calibration is not what is tested): every trial a new placement, the reference the
 // twin's truth. 5 parts x 2 trials, type 1 with 25 placements, linearity 5 parts x 2.
 TEST(TwinGauge, RunsTheThreeStudiesOnRedrawnPlacements) {
-  CalibratedStation station;
-  station.truth = BuildStation(ScenePreset("compact"));
-  station.rig_report.rig = station.truth.rig;
-  station.plane_report.plane = station.truth.plane;
+  const CalibratedStation station = TrueCalibratedStation(BuildStation(ScenePreset("compact")));
   TwinGaugeOptions options;
   options.seed = 3;
   options.parts = 5;

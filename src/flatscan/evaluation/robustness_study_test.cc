@@ -65,10 +65,7 @@ TEST(RobustnessStudy, EachRealisticEffectChangesTheSceneAndAllButTheHaloTogether
 // interrupted. (Halo and motion between the exposures are not handled yet:
 // docs/evaluation.md, "Robustness".)
 TEST(RobustnessStudy, InspectionMeasuresPartsWithTheHandledEffectsOrSaysNotMeasured) {
-  CalibratedStation station;
-  station.truth = BuildStation(ScenePreset("compact"));
-  station.rig_report.rig = station.truth.rig;
-  station.plane_report.plane = station.truth.plane;
+  const CalibratedStation station = TrueCalibratedStation(BuildStation(ScenePreset("compact")));
   BatchStudyOptions options;
   options.parts = 6;
   options.seed = 4;

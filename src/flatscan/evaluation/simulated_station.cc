@@ -37,4 +37,12 @@ CalibratedStation SimulateAndCalibrateStation(const SceneConfig& scene, uint64_t
   return CalibrateSimulatedStation(scene, dir);
 }
 
+CalibratedStation TrueCalibratedStation(const Station& truth) {
+  CalibratedStation station;
+  station.truth = truth;
+  station.rig_report.rig = truth.rig;
+  station.plane_report.plane = truth.plane;
+  return station;
+}
+
 }  // namespace flatscan

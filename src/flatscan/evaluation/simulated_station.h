@@ -20,6 +20,10 @@ struct CalibratedStation {
   const SupportPlane& plane() const { return plane_report.plane; }
 };
 
+// A station that inspects with the simulator's true rig and plane: for tests of what is
+// not the calibration (and evaluate --true-calibration's diagnostic).
+CalibratedStation TrueCalibratedStation(const Station& truth);
+
 // Calibrates from a dataset folder written by SimulateDataset (calib/left_*.png,
 // calib/right_*.png, markers/left.png, markers/right.png) whose scene is `scene`, and
 // writes rig_calibrated.yml and plane_calibrated.yml into it. Throws InputError if

@@ -99,7 +99,7 @@ class CaptureCalibrationCommand : public Command {
       const std::string dir = cameras_.substr(std::string(kFakePrefix).size());
       std::vector<PairEntry> pairs;
       for (const ImagePairFiles& p : PairImagesByName({dir + "/left_*.png"}, {dir + "/right_*.png"}))
-        pairs.push_back({p.left.stem().string(), p.left.string(), p.right.string(), std::nullopt});
+        pairs.push_back({p.left.stem().string(), p.left.string(), p.right.string(), std::nullopt, {}});
       return MakeFakeSource(cameras_, MakeImagePairsScene(std::move(pairs)), o);
     }
     const auto comma = cameras_.find(',');

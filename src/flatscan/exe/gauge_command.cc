@@ -1,16 +1,21 @@
+#include <filesystem>
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/store_access.h"
 #include "flatscan/gauge/gauge_data.h"
 #include "flatscan/gauge/gauge_report.h"
 #include "flatscan/io/output_files.h"
 #include "flatscan/report/html_page.h"
 #include "flatscan/report/svg_chart.h"
+#include "flatscan/store/postgres_results_store.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -67,32 +72,29 @@ class GaugeCommand : public Command {
                                           "x,y,z (mm, z above the surface plate); flatscan computes the quantity");
     reference->excludes(points);
     points->excludes(reference);
-    agreement_->add_option("--quantity", quantity_, "what is compared: flatness_mm, lsq_pv_mm or minzone_mm")
-        ->default_val(quantity_);
   }
 
   int Run() override {
-    OutputFiles out({{"--data", data_}, {"--reference", reference_}, {"--reference-points", reference_points_}});
+    std::vector<OutputFiles::Named> inputs = {
+        {"--data", data_}, {"--reference", reference_}, {"--reference-points", reference_points_}};
+    if (!IsPostgresUri(store_)) inputs.push_back({"--store", store_});
+    OutputFiles out(inputs);
     out.Declare("--json", json_);
     out.Declare("--html", html_);
     nlohmann::json json;
     std::string markdown, html_extra;
     if (grr_->parsed()) {
       grr_options_.tolerance_mm = tolerance_mm_;
-      const std::vector<GaugeObservation> data = ReadGaugeRRCsv(data_);
-      std::vector<double> values;
-      for (const GaugeObservation& o : data) values.push_back(o.value);
-      CheckMillimetres(values, tolerance_mm_, data_);
-      const GaugeRRResult result = AnalyseGaugeRR(data, grr_options_, data_);
+      const std::vector<GaugeObservation> data = Observations(ReadGaugeRRCsv);
+      const GaugeRRResult result = AnalyseGaugeRR(data, grr_options_, Source());
       json = GaugeRRJson(result, grr_options_);
-      markdown = GaugeRRMarkdown(result, grr_options_, data_);
+      markdown = GaugeRRMarkdown(result, grr_options_, Source());
     } else if (type1_->parsed()) {
       const Type1Options options{tolerance_mm_, reference_mm_};
-      const std::vector<double> values = ReadType1Csv(data_);
-      CheckMillimetres(values, tolerance_mm_, data_);
-      const Type1Result result = AnalyseType1(values, options, data_);
+      const std::vector<double> values = Type1Values();
+      const Type1Result result = AnalyseType1(values, options, Source());
       json = Type1Json(result, options);
-      markdown = Type1Markdown(result, options, data_);
+      markdown = Type1Markdown(result, options, Source());
     } else if (agreement_->parsed()) {
       markdown = RunAgreement(json, html_extra);
     } else {
@@ -100,7 +102,7 @@ class GaugeCommand : public Command {
       json = LinearityJson(result);
       markdown = LinearityMarkdown(result, data_);
     }
-    json["data"] = data_;
+    json[store_.empty() ? "data" : "store"] = Source();
     out.StageText("--json", json.dump(2) + "\n");
     out.StageText("--html", HtmlPage("flatscan gauge study", MarkdownToHtml(markdown) + html_extra));
     out.Commit();
@@ -109,6 +111,60 @@ class GaugeCommand : public Command {
   }
 
  private:
+  std::string Source() const { return store_.empty() ? data_ : store_; }
+
+  // The study's measurements: --data read by `read`, or the tagged records of --store;
+  // refused when they look like micrometres.
+  std::vector<GaugeObservation> Observations(
+      const std::function<std::vector<GaugeObservation>(const std::filesystem::path&)>& read) const {
+    if (data_.empty() && store_.empty()) ThrowInputError("gauge: expected --data FILE or --store STORE");
+    const std::vector<GaugeObservation> data = store_.empty() ? read(data_) : TaggedRecords();
+    std::vector<double> values;
+    for (const GaugeObservation& o : data) values.push_back(o.value);
+    CheckMillimetres(values, tolerance_mm_, Source());
+    return data;
+  }
+
+  std::vector<double> Type1Values() const {
+    std::vector<double> values;
+    if (store_.empty()) {
+      if (data_.empty()) ThrowInputError("gauge: expected --data FILE or --store STORE");
+      values = ReadType1Csv(data_);
+      CheckMillimetres(values, tolerance_mm_, data_);
+      return values;
+    }
+    const std::vector<GaugeObservation> data = Observations({});
+    for (const GaugeObservation& o : data) {
+      if (o.part != data.front().part)
+        ThrowInputError("--store '{}': records of part '{}' and of part '{}': a type 1 study measures one reference "
+                        "part (choose the records with --recipe-name)",
+                        store_, data.front().part, o.part);
+      values.push_back(o.value);
+    }
+    return values;
+  }
+
+  // The records of --store with study tags, as observations of --quantity. A tagged record
+  // that was not measured is refused: the study would silently lose a trial.
+  std::vector<GaugeObservation> TaggedRecords() const {
+    const FlatnessQuantity q = ParseFlatnessQuantity(quantity_, "--quantity");
+    std::vector<GaugeObservation> out;
+    OpenStoreToRead(store_, "--store")->ForEach(TimeRange{}, [&](const StationRecord& r) {
+      if (r.study.Empty() || (!recipe_name_.empty() && r.recipe_name != recipe_name_)) return;
+      const std::string appraiser = r.study.appraiser.empty() ? r.station_id : r.study.appraiser;
+      if (!r.inspection.measured)
+        ThrowInputError("--store '{}': record {} (part '{}', appraiser '{}', trial '{}') was not measured: {} (measure "
+                        "the part again, or leave its trials out of the study)",
+                        store_, r.sequence, r.study.part, appraiser, r.study.trial, r.inspection.error);
+      out.push_back({r.study.part, appraiser, r.study.trial, ValueOf(r.inspection.values, q), 0});
+    });
+    if (out.empty())
+      ThrowInputError("--store '{}': no records with study tags (part, appraiser, trial){} (give them in the pairs "
+                      "file's columns part, appraiser, trial)",
+                      store_, recipe_name_.empty() ? "" : fmt::format(" of recipe '{}'", recipe_name_));
+    return out;
+  }
+
   // The agreement study; its Bland-Altman plot goes into `html_extra`.
   std::string RunAgreement(nlohmann::json& json, std::string& html_extra) {
     const FlatnessQuantity q = ParseFlatnessQuantity(quantity_, "--quantity");
@@ -117,12 +173,9 @@ class GaugeCommand : public Command {
     const std::string reference_name = reference_.empty() ? reference_points_ : reference_;
     const ReferenceTable reference =
         reference_.empty() ? ReadReferencePoints(reference_points_) : ReadReferenceCsv(reference_);
-    const std::vector<GaugeObservation> data = ReadAgreementCsv(data_);
-    std::vector<double> values;
-    for (const GaugeObservation& o : data) values.push_back(o.value);
-    CheckMillimetres(values, tolerance_mm_, data_);
+    const std::vector<GaugeObservation> data = Observations(ReadAgreementCsv);
     const AgreementResult result =
-        AnalyseAgreement(PairWithReference(data, reference, q, data_, reference_name), data_);
+        AnalyseAgreement(PairWithReference(data, reference, q, Source(), reference_name), Source());
     json = AgreementJson(result, quantity_, tolerance_mm_);
     json["reference"] = reference_name;
     std::vector<double> means, differences;
@@ -132,11 +185,22 @@ class GaugeCommand : public Command {
     }
     html_extra = "<p>" + BlandAltmanSvg(means, differences, 1000 * result.bias, 1000 * result.lower_loa,
                                        1000 * result.upper_loa) + "</p>\n";
-    return AgreementMarkdown(result, quantity_, tolerance_mm_, fmt::format("{} against {}", data_, reference_name));
+    return AgreementMarkdown(result, quantity_, tolerance_mm_, fmt::format("{} against {}", Source(), reference_name));
   }
 
+  // --data FILE or --store STORE (the station's records that carry study tags), and the rest.
   void AddCommon(CLI::App* study, const std::string& data_help) {
-    study->add_option("--data", data_, data_help)->required();
+    auto* data = study->add_option("--data", data_, data_help);
+    auto* store = study->add_option("--store", store_,
+                                    "instead of --data: the records with study tags (part, appraiser, trial) in a "
+                                    "results store (SQLite file or postgresql://...); the appraiser defaults to the "
+                                    "record's station");
+    data->excludes(store);
+    store->excludes(data);
+    study->add_option("--recipe-name", recipe_name_, "with --store: only the records of this recipe");
+    study->add_option("--quantity", quantity_, "the value studied: flatness_mm, lsq_pv_mm or minzone_mm (with "
+                                               "--store; agreement: also what the reference gives)")
+        ->default_val(quantity_);
     Fills(study->add_option("--tolerance", tolerance_mm_, "the tolerance T (mm): flatness's upper limit")->required(),
           "tolerance_mm");
     study->add_option("--json", json_, "write the study as JSON");
@@ -144,7 +208,7 @@ class GaugeCommand : public Command {
   }
 
   CLI::App *grr_ = nullptr, *type1_ = nullptr, *linearity_ = nullptr, *agreement_ = nullptr;
-  std::string data_, json_, html_, reference_, reference_points_, quantity_ = "flatness_mm";
+  std::string data_, store_, recipe_name_, json_, html_, reference_, reference_points_, quantity_ = "flatness_mm";
   double tolerance_mm_ = 0, reference_mm_ = 0;
   GaugeRROptions grr_options_;
 };

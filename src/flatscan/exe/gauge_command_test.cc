@@ -2,6 +2,7 @@
 // command, the JSON keys external tools read, and bad data refused with exit 2.
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -138,6 +139,75 @@ TEST(GaugeCommand, AgreementWithAReferenceCsvAndItsPoints) {
             std::string::npos)
       << r.err;
   EXPECT_EQ(testing::ReadFileBytes(json), before);
+}
+
+// The whole path: a simulated dataset with repeated shots, listed in a pairs file that tags
+// each shot as a trial of its part, replayed by a station into its results store, studied
+// from the store; the same values exported and studied from a CSV give the same study.
+TEST(GaugeCommand, GrrFromAStationsTaggedRecords) {
+  testing::ScratchDir dir("gauge_store");
+  const fs::path data = dir.path() / "data", store = dir.path() / "results.db";
+  auto r = testing::RunFlatscan(fmt::format("simulate --preset compact --parts 5 --shots 2 --no-calibration "
+                                            "--no-markers --seed 4 -q -o {}",
+                                            data.string()),
+                                120);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ofstream(data / "shield.yml") << "name: shield\nthickness_mm: 0.2\ntolerance_mm: 0.25\nrig: rig.yml\n"
+                                        "plane: plane_true.yml\n";
+  {
+    std::ofstream tagged(data / "study.csv");
+    tagged << "id,left,right,part,trial\n";
+    for (int part = 0; part < 5; ++part)
+      for (int shot = 0; shot < 2; ++shot)
+        tagged << fmt::format("part_{0:03d}_shot_{1:02d},parts/part_{0:03d}_shot_{1:02d}_left.png,"
+                              "parts/part_{0:03d}_shot_{1:02d}_right.png,part_{0:03d},{2}\n",
+                              part, shot, shot + 1);
+  }
+  r = testing::RunFlatscan(fmt::format("station --recipe {} --source pairs:{} --store {} --station-id st-1 "
+                                       "--until-idle 0.2",
+                                       (data / "shield.yml").string(), (data / "study.csv").string(), store.string()),
+                           120);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const fs::path from_store = dir.path() / "store.json", from_csv = dir.path() / "csv.json", csv = dir.path() / "grr.csv";
+  r = testing::RunFlatscan(
+      fmt::format("gauge grr --store {} --tolerance 0.25 --json {}", store.string(), from_store.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("5 parts x 1 appraiser x 2 trials"), std::string::npos) << r.out;
+
+  r = testing::RunFlatscan(fmt::format("results --store {} --json", store.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  {
+    std::ofstream out(csv);
+    out << "part,appraiser,trial,value\n";
+    std::istringstream lines(r.out);
+    for (std::string line; std::getline(lines, line);) {
+      const nlohmann::json j = nlohmann::json::parse(line);
+      EXPECT_EQ(j["study"]["trial"], j["source_id"].get<std::string>().back() == '0' ? "1" : "2");
+      out << fmt::format("{},{},{},{}\n", j["study"]["part"].get<std::string>(), j["station_id"].get<std::string>(),
+                         j["study"]["trial"].get<std::string>(), j["flatness_mm"].get<double>());
+    }
+  }
+  r = testing::RunFlatscan(fmt::format("gauge grr --data {} --tolerance 0.25 --json {}", csv.string(), from_csv.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json a = nlohmann::json::parse(testing::ReadFileBytes(from_store)),
+                       b = nlohmann::json::parse(testing::ReadFileBytes(from_csv));
+  for (const char* key : {"ev", "pv", "grr", "ndc"}) EXPECT_EQ(a[key], b[key]) << key;
+  EXPECT_LT(a["grr"].get<double>(), 0.003);  // true rig and plane, compact: micrometres
+
+  // A tagged pair that could not be measured: the study is refused, naming it.
+  std::ofstream(data / "study.csv", std::ios::app) << "lost,parts/none_left.png,parts/none_right.png,part_000,3\n";
+  r = testing::RunFlatscan(fmt::format("station --recipe {} --source pairs:{} --store {} --station-id st-1 "
+                                       "--until-idle 0.2",
+                                       (data / "shield.yml").string(), (data / "study.csv").string(), store.string()),
+                           120);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = testing::RunFlatscan(fmt::format("gauge grr --store {} --tolerance 0.25", store.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--store '{}': record 11 (part 'part_000', appraiser 'st-1', trial '3') was not "
+                                   "measured: ",
+                                   store.string())),
+            std::string::npos)
+      << r.err;
 }
 
 }  // namespace

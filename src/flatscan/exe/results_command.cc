@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "flatscan/exe/commands.h"
+#include "flatscan/exe/store_access.h"
 #include "flatscan/io/output_files.h"
 #include "flatscan/io/pairs_csv.h"
 #include "flatscan/store/postgres_results_store.h"
@@ -62,22 +63,11 @@ class ResultsCommand : public Command {
     const bool csv = csv_option_->count() > 0;
     std::string& target = csv ? csv_ : json_;
     if (target.empty()) target = "-";
-    const bool plant = IsPostgresUri(store_);
-    if (!plant && !std::filesystem::is_regular_file(store_))
-      ThrowInputError("--store '{}': no such results store", store_);
     std::vector<OutputFiles::Named> inputs;
-    if (!plant) inputs.push_back({"--store", store_});
+    if (!IsPostgresUri(store_)) inputs.push_back({"--store", store_});
     OutputFiles out(inputs);
     out.Declare(csv ? "--csv" : "--json", target, OutputFiles::kStdoutAllowed);
-    std::unique_ptr<ResultsStore> store;
-    try {
-      if (plant) store = std::make_unique<PostgresResultsStore>(store_, "", false);
-      else store = OpenSqliteStore(store_, false);
-    } catch (const StoreError& e) {
-      ThrowInputError("--store: {}", e.what());
-    } catch (const InputError& e) {  // a URI libpq cannot parse
-      ThrowInputError("--store: {}", e.what());
-    }
+    const std::unique_ptr<ResultsStore> store = OpenStoreToRead(store_, "--store");
     const auto write = [&](std::ostream& os) {
       if (csv) os << kCsvHeader << "\n";
       store->ForEach(range, [&](const StationRecord& r) {

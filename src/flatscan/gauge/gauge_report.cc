@@ -86,9 +86,9 @@ nlohmann::json LinearityJson(const LinearityResult& r) {
 
 std::string GaugeRRMarkdown(const GaugeRRResult& r, const GaugeRROptions& options, const std::string& source) {
   std::string md = fmt::format(
-      "## Gauge R&R (AIAG MSA 4th edition, ANOVA)\n\n{}: {} parts x {} appraisers x {} trials, tolerance {} mm.  \n"
+      "## Gauge R&R (AIAG MSA 4th edition, ANOVA)\n\n{}: {} parts x {} appraiser{} x {} trials, tolerance {} mm.  \n"
       "Method: {}.\n\n",
-      source, r.parts, r.appraisers, r.trials, options.tolerance_mm, r.method);
+      source, r.parts, r.appraisers, r.appraisers == 1 ? "" : "s", r.trials, options.tolerance_mm, r.method);
   md += "| source | df | SS | MS | F | p |\n|---|---|---|---|---|---|\n";
   for (const AnovaRow& row : r.anova)
     md += row.f > 0 ? fmt::format("| {} | {} | {:.6g} | {:.6g} | {:.4g} | {:.4g} |\n", row.source, row.df, row.ss,
@@ -112,7 +112,7 @@ std::string GaugeRRMarkdown(const GaugeRRResult& r, const GaugeRROptions& option
 
 std::string Type1Markdown(const Type1Result& r, const Type1Options& options, const std::string& source) {
   return fmt::format(
-      "## Type 1 study (VDA 5)\n\n{}: {} measurements of a reference part of {} mm, tolerance {} mm.\n\n"
+      "## Type 1 study (VDA 5)\n\n{}: {} measurements of a reference part of {:.4f} mm, tolerance {} mm.\n\n"
       "| mean | sd | bias | t (p) | Cg | Cgk |\n|---|---|---|---|---|---|\n"
       "| {:.5f} mm | {} | {} | {:.2f} ({:.3g}) | {:.2f} | {:.2f} |\n\n"
       "**{}** (Cg and Cgk at least {}).\n",
@@ -125,7 +125,7 @@ std::string LinearityMarkdown(const LinearityResult& r, const std::string& sourc
                                "| part | reference | n | mean bias | t | p |\n|---|---|---|---|---|---|\n",
                                source, r.parts.size(), r.n);
   for (const LinearityPart& p : r.parts)
-    md += fmt::format("| {} | {} mm | {} | {} | {:.2f} | {:.3g} |\n", p.part, p.reference, p.n, Um(p.bias), p.t, p.p);
+    md += fmt::format("| {} | {:.4f} mm | {} | {} | {:.2f} | {:.3g} |\n", p.part, p.reference, p.n, Um(p.bias), p.t, p.p);
   md += fmt::format(
       "\nbias = {:.6g} + {:.6g} x reference (mm); R^2 {:.4f}, s {}; slope t {:.3f} (p {:.3g}), intercept t {:.3f} "
       "(p {:.3g}); %linearity {:.2f}%.\n\n**{}**: the line bias = 0 {} the 95% confidence band over the range.\n",

@@ -30,7 +30,7 @@ double ParseThickness(const std::string& text, const std::string& name, int line
 
 std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
   const std::string name = path.string();
-  const std::string expected = "expected a CSV with the columns id,left,right[,thickness]";
+  const std::string expected = "expected a CSV with the columns id,left,right[,thickness][,part,appraiser,trial]";
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) ThrowInputError("{}: is a folder ({})", name, expected);
   std::ifstream in(path, std::ios::binary);
@@ -42,7 +42,10 @@ std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
   // Column order from the header, or the three columns of a file without one.
   std::vector<std::string> columns = {"id", "left", "right"};
   size_t first = 0;
-  const auto known = [](const std::string& c) { return c == "id" || c == "left" || c == "right" || c == "thickness"; };
+  const auto known = [](const std::string& c) {
+    return c == "id" || c == "left" || c == "right" || c == "thickness" || c == "part" || c == "appraiser" ||
+           c == "trial";
+  };
   const bool header = !records.empty() && (records[0].fields[0] == "id" ||
                                            std::all_of(records[0].fields.begin(), records[0].fields.end(), known));
   if (header) {
@@ -50,7 +53,8 @@ std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
     first = 1;
     for (const std::string& c : columns)
       if (!known(c))
-        ThrowInputError("{}: line 1: unknown column '{}' (the columns are id, left, right and optionally thickness)",
+        ThrowInputError("{}: line 1: unknown column '{}' (the columns are id, left, right and optionally thickness, "
+                        "part, appraiser, trial)",
                         name, c);
     for (const char* required : {"id", "left", "right"})
       if (std::find(columns.begin(), columns.end(), required) == columns.end())
@@ -60,6 +64,10 @@ std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
     return static_cast<int>(std::find(columns.begin(), columns.end(), c) - columns.begin());
   };
   const int id = column("id"), left = column("left"), right = column("right"), thickness = column("thickness");
+  const int part = column("part"), appraiser = column("appraiser"), trial = column("trial");
+  const auto cell = [&](const CsvRecord& rec, int c) {
+    return c < static_cast<int>(columns.size()) ? rec.fields[c] : std::string();
+  };
 
   const std::filesystem::path base = path.parent_path();
   auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
@@ -69,11 +77,12 @@ std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
     if (rec.fields.size() != columns.size())
       ThrowInputError("{}: line {} has {} fields (expected {}: {})", name, rec.line, rec.fields.size(), columns.size(),
                       fmt::join(columns, ","));
-    PairEntry e{rec.fields[id], rec.fields[left], rec.fields[right], std::nullopt};
+    PairEntry e{rec.fields[id], rec.fields[left], rec.fields[right], std::nullopt, {}};
     for (const auto& [value, what] : {std::pair{&e.id, "id"}, {&e.left, "left image"}, {&e.right, "right image"}})
       if (value->empty()) ThrowInputError("{}: line {}: the {} is empty", name, rec.line, what);
     if (thickness < static_cast<int>(columns.size()) && !rec.fields[thickness].empty())
       e.thickness_mm = ParseThickness(rec.fields[thickness], name, rec.line);
+    e.study = {cell(rec, part), cell(rec, appraiser), cell(rec, trial)};
     e.left = resolve(e.left);
     e.right = resolve(e.right);
     out.push_back(std::move(e));
@@ -83,12 +92,18 @@ std::vector<PairEntry> ReadPairsCsv(const std::filesystem::path& path) {
 }
 
 std::string PairsCsvText(const std::vector<PairEntry>& pairs) {
-  bool with_thickness = false;
-  for (const PairEntry& p : pairs) with_thickness |= p.thickness_mm.has_value();
-  std::string text = with_thickness ? "id,left,right,thickness\n" : "id,left,right\n";
+  bool with_thickness = false, with_study = false;
+  for (const PairEntry& p : pairs) {
+    with_thickness |= p.thickness_mm.has_value();
+    with_study |= !p.study.Empty();
+  }
+  std::string text = fmt::format("id,left,right{}{}\n", with_thickness ? ",thickness" : "",
+                                 with_study ? ",part,appraiser,trial" : "");
   for (const PairEntry& p : pairs) {
     text += fmt::format("{},{},{}", CsvField(p.id), CsvField(p.left), CsvField(p.right));
     if (with_thickness) text += p.thickness_mm ? fmt::format(",{}", *p.thickness_mm) : ",";
+    if (with_study)
+      text += fmt::format(",{},{},{}", CsvField(p.study.part), CsvField(p.study.appraiser), CsvField(p.study.trial));
     text += "\n";
   }
   return text;

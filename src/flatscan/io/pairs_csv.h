@@ -2,7 +2,8 @@
 // Pairs files: a CSV (RFC 4180) listing stereo pairs, one per record, with a header
 // naming the columns: `id,left,right` and optionally `thickness` (mm: the height of the
 // part's side face, as `inspect --thickness`, for batches of parts of different
-// thickness; an empty cell takes --thickness). Image paths are relative to the
+// thickness; an empty cell takes --thickness) and `part`, `appraiser`, `trial` (a gauge
+// study's tags, io/study_tags.h; kept in the station's records). Image paths are relative to the
 // CSV's folder (or absolute). Written by `flatscan simulate` (pairs.csv, with the
 // thickness of each simulated part) and read by `flatscan inspect --pairs`.
 //
@@ -16,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "flatscan/io/study_tags.h"
 #include "flatscan/io/csv_table.h"  // CsvField
 
 namespace flatscan {
@@ -24,6 +26,7 @@ struct PairEntry {
   std::string id;
   std::string left, right;            // as written in the file (relative to its folder or absolute)
   std::optional<double> thickness_mm;  // the `thickness` column, when given for this pair
+  StudyTags study;                     // the `part`, `appraiser`, `trial` columns (empty when absent)
 };
 
 // Throws InputError naming the file (and the line) when it cannot be read, a record has

@@ -321,7 +321,7 @@ SimulateSummary SimulateDataset(const SimulateOptions& options, const std::funct
       WritePng(root / files.back().right, RenderPartImage(st, RigSide::kRight, part.geometry, pose, next_seed(), markers, defects));
       add(files.back().left);
       add(files.back().right);
-      pairs.push_back({files.back().id, files.back().left, files.back().right, part.geometry.SideHeight()});
+      pairs.push_back({files.back().id, files.back().left, files.back().right, part.geometry.SideHeight(), {}});
       ++summary.part_pairs;
     }
     truth_parts.push_back(PartTruthJson(st, fmt::format("part_{:03d}", part.id), part, files));

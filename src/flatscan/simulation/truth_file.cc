@@ -154,7 +154,7 @@ void WritePartPairs(const std::filesystem::path& dir, const Station& station, ui
     const ShotFiles files{p.id, p.id + "_left.png", p.id + "_right.png"};
     WriteImage((staged.path() / files.left).string(), p.left);
     WriteImage((staged.path() / files.right).string(), p.right);
-    csv.push_back({p.id, files.left, files.right, p.part.geometry.SideHeight()});
+    csv.push_back({p.id, files.left, files.right, p.part.geometry.SideHeight(), {}});
     parts.push_back(PartTruthJson(station, p.id, p.part, {files}));
   }
   WriteTextFileAtomically(staged.path() / "pairs.csv", PairsCsvText(csv));

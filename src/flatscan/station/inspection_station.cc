@@ -103,6 +103,7 @@ StationRecord MeasureSourcePair(const LoadedRecipe& loaded, const SourcePair& pa
   r.record_id = NewRecordId();
   r.station_id = options.station_id;
   r.source_id = pair.source_id;
+  r.study = pair.study;
   r.recipe_name = loaded.recipe.name;
   r.recipe_sha256 = loaded.recipe.sha256;
   r.software_version = options.software_version;

@@ -28,7 +28,9 @@ class PairsFileSource : public PairSource {
       return std::nullopt;
     }
     const PairEntry& p = pairs_[next_++];
-    return FilePair(p.id, p.left, p.right);
+    SourcePair pair = FilePair(p.id, p.left, p.right);
+    pair.study = p.study;
+    return pair;
   }
   bool Exhausted() const override { return next_ == pairs_.size(); }
   std::string Name() const override { return name_; }

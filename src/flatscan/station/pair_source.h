@@ -12,6 +12,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "flatscan/io/study_tags.h"
+
 namespace flatscan {
 
 struct Recipe;  // station/recipe.h
@@ -19,6 +21,7 @@ struct Recipe;  // station/recipe.h
 struct SourcePair {
   std::string source_id;                    // the pair's id in its source
   std::filesystem::path left, right;        // image files (a file source)
+  StudyTags study;                          // the pair's gauge-study tags (a pairs file's part, appraiser, trial)
   std::optional<std::string> not_measurable;  // why it cannot be measured (a half pair past its timeout)
   // Not measurable because the source could not deliver it (a camera's frame lost,
   // incomplete or out of sync), not because of the part: the station counts these to

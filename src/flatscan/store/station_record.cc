@@ -38,6 +38,8 @@ json StationRecordToJson(const StationRecord& r) {
   j["software_version"] = r.software_version;
   j["archive"] = r.archive.left.empty() ? json(nullptr) : json{{"left", r.archive.left}, {"right", r.archive.right}};
   if (!r.archive.thumbnail.empty()) j["archive"]["thumbnail"] = r.archive.thumbnail;
+  if (!r.study.Empty())
+    j["study"] = {{"part", r.study.part}, {"appraiser", r.study.appraiser}, {"trial", r.study.trial}};
   return j;
 }
 
@@ -71,6 +73,8 @@ StationRecord StationRecordFromJson(const json& j) {
     r.archive.right = StringAt(j.at("archive"), "right");
     if (j.at("archive").contains("thumbnail")) r.archive.thumbnail = StringAt(j.at("archive"), "thumbnail");
   }
+  if (j.contains("study") && j.at("study").is_object())
+    r.study = {StringAt(j.at("study"), "part"), StringAt(j.at("study"), "appraiser"), StringAt(j.at("study"), "trial")};
   return r;
 }
 

@@ -15,11 +15,14 @@
 //   software_version   flatscan's version
 //   archive            {left, right[, thumbnail]}: where the images (and the part's
 //                      thumbnail, when the station made one) were archived, or null
+//   study              {part, appraiser, trial}: the pair's gauge-study tags
+//                      (io/study_tags.h); left out when the pair has none
 #include <cstdint>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "flatscan/io/study_tags.h"
 #include "flatscan/inspection/inspection_record.h"
 
 namespace flatscan {
@@ -39,6 +42,7 @@ struct StationRecord {
   std::string left_sha256, right_sha256;
   std::string software_version;
   ArchivedPair archive;
+  StudyTags study;
   InspectionRecord inspection;
 };
 

@@ -48,6 +48,15 @@ TEST(StationRecord, RoundTripsThroughJsonWithTheStationKeys) {
   old["archive"].erase("thumbnail");
   EXPECT_EQ(StationRecordFromJson(old).archive.thumbnail, "");
   EXPECT_EQ(back.inspection.values.flatness_mm, 0.0812);  // exact: JSON keeps doubles round-trip
+  EXPECT_FALSE(j.contains("study"));  // a pair without study tags
+}
+
+TEST(StationRecord, StudyTagsRoundTripWhenThePairHasThem) {
+  StationRecord r = SomeStationRecord();
+  r.study = {"p7", "A", "2"};
+  const nlohmann::json j = StationRecordToJson(r);
+  EXPECT_EQ(j["study"], (nlohmann::json{{"part", "p7"}, {"appraiser", "A"}, {"trial", "2"}}));
+  EXPECT_EQ(StationRecordFromJson(nlohmann::json::parse(j.dump())).study, r.study);
 }
 
 TEST(StationRecord, AMissingKeyIsNamed) {
