@@ -125,15 +125,14 @@ class GaugeCommand : public Command {
     return data;
   }
 
+  // A type 1 study's values: its CSV (one part by construction) or the tagged records of one part.
   std::vector<double> Type1Values() const {
+    const std::vector<GaugeObservation> data = Observations([](const std::filesystem::path& file) {
+      std::vector<GaugeObservation> observations;
+      for (double value : ReadType1Csv(file)) observations.push_back({"", "", "", value, 0});
+      return observations;
+    });
     std::vector<double> values;
-    if (store_.empty()) {
-      if (data_.empty()) ThrowInputError("gauge: expected --data FILE or --store STORE");
-      values = ReadType1Csv(data_);
-      CheckMillimetres(values, tolerance_mm_, data_);
-      return values;
-    }
-    const std::vector<GaugeObservation> data = Observations({});
     for (const GaugeObservation& o : data) {
       if (o.part != data.front().part)
         ThrowInputError("--store '{}': records of part '{}' and of part '{}': a type 1 study measures one reference "

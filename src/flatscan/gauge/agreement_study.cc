@@ -2,8 +2,7 @@
 
 #include <cmath>
 
-#include <boost/math/distributions/students_t.hpp>
-
+#include "flatscan/gauge/t_distribution.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -32,7 +31,7 @@ AgreementResult AnalyseAgreement(std::vector<AgreementPair> pairs, const std::st
   out.sd = std::sqrt(ss_d / (n - 1));
   out.lower_loa = out.bias - 1.96 * out.sd;
   out.upper_loa = out.bias + 1.96 * out.sd;
-  const double t975 = boost::math::quantile(boost::math::complement(boost::math::students_t(n - 1), 0.025));
+  const double t975 = TQuantile975(n - 1);
   out.bias_ci_half = t975 * out.sd / std::sqrt(n);
   out.loa_ci_half = t975 * out.sd * std::sqrt(3.0 / n);
   out.pearson_r = syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;

@@ -16,6 +16,13 @@ namespace {
 
 constexpr double kMicrometreRatio = 100;  // median |value| / T beyond which values look like micrometres
 
+// How many times apart two columns' typical magnitudes are (max / min of the medians), 1
+// when either is 0: one column in micrometres puts two instruments' values 1000x apart.
+double TimesApart(const double median_a, const double median_b) {
+  if (!(median_a > 0 && median_b > 0)) return 1.0;
+  return std::max(median_a, median_b) / std::min(median_a, median_b);
+}
+
 const std::string& NonEmpty(const CsvTable& table, size_t row, const std::string& column) {
   const std::string& cell = table.Cell(row, column);
   if (cell.empty()) ThrowInputError("{}: line {}: the {} is empty", table.file(), table.Line(row), column);
@@ -64,14 +71,11 @@ std::vector<LinearityObservation> ReadLinearityCsv(const std::filesystem::path& 
     references.push_back(std::abs(o.reference));
     out.push_back(std::move(o));
   }
-  // The two columns from two instruments: one of them in micrometres puts them 1000x apart.
   const double value_median = Median(values), reference_median = Median(references);
-  if (value_median > 0 && reference_median > 0 &&
-      (value_median > kMicrometreRatio * reference_median || reference_median > kMicrometreRatio * value_median))
+  if (const double apart = TimesApart(value_median, reference_median); apart > kMicrometreRatio)
     ThrowInputError("{}: the values (median {:.4g}) and the references (median {:.4g}) are {:.0f} times apart: one "
                     "column is in micrometres? (both must be in mm)",
-                    table.file(), value_median, reference_median,
-                    std::max(value_median, reference_median) / std::min(value_median, reference_median));
+                    table.file(), value_median, reference_median, apart);
   return out;
 }
 
@@ -133,10 +137,10 @@ std::vector<AgreementPair> PairWithReference(const std::vector<GaugeObservation>
     out.push_back(pair);
   }
   const double rm = Median(references), vm = Median(values);
-  if (rm > 0 && vm > 0 && (rm > kMicrometreRatio * vm || vm > kMicrometreRatio * rm))
+  if (const double apart = TimesApart(rm, vm); apart > kMicrometreRatio)
     ThrowInputError("{} (median {:.4g}) and {} (median {:.4g}) are {:.0f} times apart: one of them is in micrometres? "
                     "(both must be in mm)",
-                    reference_name, rm, data_name, vm, std::max(rm, vm) / std::min(rm, vm));
+                    reference_name, rm, data_name, vm, apart);
   return out;
 }
 

@@ -4,17 +4,11 @@
 #include <cmath>
 #include <map>
 
-#include <boost/math/distributions/students_t.hpp>
-
+#include "flatscan/gauge/t_distribution.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
 namespace {
-
-double TwoSidedP(double t, int df) {
-  if (!std::isfinite(t)) return 0.0;
-  return 2 * boost::math::cdf(boost::math::complement(boost::math::students_t(df), std::abs(t)));
-}
 
 // Per part: its reference (the same on every row) and its biases.
 std::vector<LinearityPart> GroupParts(const std::vector<LinearityObservation>& data, const std::string& file,
@@ -60,7 +54,7 @@ LinearityResult AnalyseLinearity(const std::vector<LinearityObservation>& data, 
     for (double b : biases[i]) ss += (b - part.bias) * (b - part.bias);
     const double sd = std::sqrt(ss / (part.n - 1));
     part.t = sd > 0 ? part.bias / (sd / std::sqrt(part.n)) : 0.0;
-    part.p = sd > 0 ? TwoSidedP(part.t, part.n - 1) : 1.0;
+    part.p = sd > 0 ? TwoSidedTP(part.t, part.n - 1) : 1.0;
     xbar += part.reference * part.n;
     bbar += sum;
     n += part.n;
@@ -87,15 +81,15 @@ LinearityResult AnalyseLinearity(const std::vector<LinearityObservation>& data, 
     ThrowInputError("{}: the biases lie exactly on a line: the data cannot show the gauge's repeatability", file);
   out.r_squared = syy > 0 ? 1 - ss_res / syy : 0.0;
   out.t_slope = out.slope / (out.s / std::sqrt(sxx));
-  out.p_slope = TwoSidedP(out.t_slope, n - 2);
+  out.p_slope = TwoSidedTP(out.t_slope, n - 2);
   out.t_intercept = out.intercept / (out.s * std::sqrt(1.0 / n + xbar * xbar / sxx));
-  out.p_intercept = TwoSidedP(out.t_intercept, n - 2);
+  out.p_intercept = TwoSidedTP(out.t_intercept, n - 2);
   out.pct_linearity = 100 * std::abs(out.slope);
 
   // bias = 0 inside the band over the range: the band's half width grows away from xbar
   // and the fitted line is straight, so the margin is checked on a fine grid.
   std::sort(parts.begin(), parts.end(), [](const auto& l, const auto& r) { return l.reference < r.reference; });
-  const double t975 = boost::math::quantile(boost::math::complement(boost::math::students_t(n - 2), 0.025));
+  const double t975 = TQuantile975(n - 2);
   const double lo = parts.front().reference, hi = parts.back().reference;
   out.worst_margin = INFINITY;
   constexpr int kGrid = 1000;

@@ -4,8 +4,7 @@
 #include <numeric>
 #include <string>
 
-#include <boost/math/distributions/students_t.hpp>
-
+#include "flatscan/gauge/t_distribution.h"
 #include "flatscan/util/error.h"
 
 namespace flatscan {
@@ -35,7 +34,7 @@ Type1Result AnalyseType1(const std::vector<double>& values, const Type1Options& 
   out.cg = 0.2 * t_width / (6 * out.sd);
   out.cgk = (0.1 * t_width - std::abs(out.bias)) / (3 * out.sd);
   out.t = out.bias / (out.sd / std::sqrt(n));
-  out.p = 2 * boost::math::cdf(boost::math::complement(boost::math::students_t(n - 1), std::abs(out.t)));
+  out.p = TwoSidedTP(out.t, n - 1);
   out.capable = out.cg >= kType1Limit && out.cgk >= kType1Limit;
   return out;
 }
