@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <ctime>
 #include <cmath>
 #include <mutex>
 #include <numeric>
@@ -15,18 +14,11 @@
 #include "flatscan/simulation/dataset.h"
 #include "flatscan/simulation/truth_file.h"
 #include "flatscan/util/error.h"
+#include "flatscan/util/stage_timer.h"
 #include "flatscan/util/statistics.h"
 
 namespace flatscan {
 namespace {
-
-// CPU time of the calling thread (ms). InspectPart runs on one thread, so this is its
-// one-thread cost even while other parts are rendered in parallel.
-double ThreadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * ts.tv_sec + 1e-6 * ts.tv_nsec;
-}
 
 // The pair with the image defects the station's scene turns on (none by default),
 // drawn from their own seed so that the parts and their noise do not change with them.
@@ -121,6 +113,13 @@ double InverseNormalCdf(double p) {
   return 0.5 * (lo + hi);
 }
 
+RenderedPart Rendered(const CalibratedStation& station, const ShotJob& job, int index) {
+  const auto [left, right] = RenderShot(station, job);
+  return {SimulatedPart{index, job.geometry, {job.shot}}, left, right};
+}
+
+}  // namespace
+
 std::vector<ShotJob> RepeatJobs(const Station& station, const RepeatStudyOptions& options) {
   Random rng(options.seed);
   const PartGeometry geometry = WithFlatness(SamplePartGeometry(station.scene.part, rng), options.flatness_mm);
@@ -130,13 +129,6 @@ std::vector<ShotJob> RepeatJobs(const Station& station, const RepeatStudyOptions
     jobs.push_back({fmt::format("shot_{:03d}", s), part.geometry, part.shots[s], Random::DeriveSeed(options.seed ^ 0x7AB1E1ull, s)});
   return jobs;
 }
-
-RenderedPart Rendered(const CalibratedStation& station, const ShotJob& job, int index) {
-  const auto [left, right] = RenderShot(station, job);
-  return {SimulatedPart{index, job.geometry, {job.shot}}, left, right};
-}
-
-}  // namespace
 
 std::vector<PartMeasurement> MeasureShots(const CalibratedStation& station, const std::vector<ShotJob>& jobs,
                                           const StudyOptions& options, const StudyProgress& progress) {

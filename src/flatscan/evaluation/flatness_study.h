@@ -93,6 +93,10 @@ struct RepeatStudy {
   ErrorSummary errors;
 };
 
+// The repeat study's shots: one part of the options' flatness drawn from the seed,
+// placed options.shots times (shot_000, shot_001, ...).
+std::vector<ShotJob> RepeatJobs(const Station& station, const RepeatStudyOptions& options);
+
 RepeatStudy RunRepeatStudy(const CalibratedStation& station, const RepeatStudyOptions& options,
                            const StudyProgress& progress = {});
 

@@ -9,6 +9,7 @@
 
 #include "flatscan/evaluation/flatness_study.h"
 #include "flatscan/evaluation/robustness_study.h"
+#include "flatscan/evaluation/structured_light_peer.h"
 
 namespace flatscan {
 
@@ -26,13 +27,16 @@ inline constexpr double kPaperPrecision = 0.9750, kPaperRecall = 0.9874, kPaperA
 inline constexpr int kPaperBatchParts = 200;
 
 std::string CalibrationMarkdown(const CalibratedStation& station);
-std::string RepeatMarkdown(const RepeatStudy& study, const RepeatStudyOptions& options);
+// With `structured_light`, the peer's rows measured on the first of the same shots.
+std::string RepeatMarkdown(const RepeatStudy& study, const RepeatStudyOptions& options,
+                           const StructuredLightStudy* structured_light = nullptr);
 std::string BatchMarkdown(const BatchStudy& study, const BatchStudyOptions& options);
 std::string RotationMarkdown(const RotationStudy& study, const RotationStudyOptions& options);
 std::string RobustnessMarkdown(const RobustnessStudy& study, const BatchStudyOptions& options);
 
 nlohmann::json CalibrationJson(const CalibratedStation& station);
-nlohmann::json RepeatJson(const RepeatStudy& study, const RepeatStudyOptions& options);
+nlohmann::json RepeatJson(const RepeatStudy& study, const RepeatStudyOptions& options,
+                          const StructuredLightStudy* structured_light = nullptr);
 nlohmann::json BatchJson(const BatchStudy& study, const BatchStudyOptions& options);
 nlohmann::json RotationJson(const RotationStudy& study, const RotationStudyOptions& options);
 nlohmann::json RobustnessJson(const RobustnessStudy& study, const BatchStudyOptions& options);

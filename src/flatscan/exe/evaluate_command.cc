@@ -1,8 +1,10 @@
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <optional>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -52,6 +54,12 @@ class EvaluateCommand : public Command {
               ->default_val(repeat_options_.shots)
               ->check(IntegerIn(2, 100000)),
           "repeat.shots");
+    Fills(sub_->add_option("--structured-light-shots", structured_light_shots_,
+                           "measure the structured-light peer (Table 1's row) on the first N shots of the repeat study "
+                           "(0: none)")
+              ->default_val(structured_light_shots_)
+              ->check(IntegerIn(0, 100000)),
+          "repeat.structured_light_shots");
     Fills(sub_->add_option("--true-flatness", repeat_options_.flatness_mm, "true flatness of the repeat study's part, mm")
               ->default_val(repeat_options_.flatness_mm)
               ->check(PositiveReal(5)),
@@ -187,7 +195,15 @@ class EvaluateCommand : public Command {
     };
     if (repeat_) {
       const RepeatStudy study = RunRepeatStudy(station, repeat_options_, ProgressLogger("repeat: shot"));
-      add_section("repeat", RepeatMarkdown(study, repeat_options_), RepeatJson(study, repeat_options_));
+      std::optional<StructuredLightStudy> structured_light;
+      if (structured_light_shots_ > 0) {
+        std::vector<ShotJob> jobs = RepeatJobs(station.truth, repeat_options_);
+        jobs.resize(std::min<size_t>(jobs.size(), structured_light_shots_));
+        spdlog::info("repeat: the structured-light peer on the first {} shots", jobs.size());
+        structured_light = RunStructuredLightStudy(station.truth, jobs);
+      }
+      const StructuredLightStudy* peer = structured_light ? &*structured_light : nullptr;
+      add_section("repeat", RepeatMarkdown(study, repeat_options_, peer), RepeatJson(study, repeat_options_, peer));
       add_chart("repeat_shots.png", RepeatShotsChart(study));
       if (save_worst_ > 0)
         SaveWorstParts(station, study.shots, save_worst_, seed_, root / "worst_repeat",
@@ -258,6 +274,7 @@ class EvaluateCommand : public Command {
   std::string output_ = "flatscan-evaluate";
   uint64_t seed_ = 1;
   bool repeat_ = false;
+  int structured_light_shots_ = 20;
   bool force_ = false;
   bool no_correction_ = false;
   SideFaceModel side_faces_ = SideFaceModel::kLocalNormal;

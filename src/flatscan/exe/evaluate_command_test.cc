@@ -20,7 +20,8 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   ScratchDir dir("evaluate-small");
   const auto out = dir.path() / "eval";
   const auto r = RunFlatscan(
-      "evaluate --repeat --shots 4 --batch 6 --rotation-step 45 --rotation-parts 2 --calib-poses 8 --seed 3 --save-worst 1 -o " +
+      "evaluate --repeat --shots 4 --structured-light-shots 1 --batch 6 --rotation-step 45 --rotation-parts 2 --calib-poses 8 "
+      "--seed 3 --save-worst 1 -o " +
       out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("| boundary stereo (paper) | 0.337 | 3.2e-03 | 4.33% | 627 |"), std::string::npos) << r.out;
@@ -34,6 +35,17 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   // The Table 1 bounds: relative error <= 1%, variance <= 4e-6 mm^2.
   EXPECT_LE(repeat["relative_error"].get<double>(), 0.01);
   EXPECT_LE(repeat["variance_mm2"].get<double>(), 4e-6);
+  // The structured-light peer on the first shot: two rows (its two phase methods), each
+  // within 10% of the truth (it reads low: the rim's extremes lie in the edge band it drops).
+  const auto& peer = repeat["structured_light"];
+  EXPECT_EQ(peer["shots"], 1);
+  ASSERT_EQ(peer["rows"].size(), 2u);
+  for (const auto& row : peer["rows"]) {
+    EXPECT_EQ(row["measured"], 1) << row.dump();
+    EXPECT_LT(row["relative_error"].get<double>(), 0.10) << row.dump();
+    EXPECT_GT(row["median_decode_ms"].get<double>(), 0.0);
+  }
+  EXPECT_NE(r.out.find("| structured light, per-pixel three-step phase (simulated) | 0.3"), std::string::npos) << r.out;
   const auto& batch = j["batch"];
   EXPECT_EQ(batch["parts"].size(), 6u);
   EXPECT_EQ(batch["confusion"]["unmeasured"], 0);

@@ -1,6 +1,8 @@
 #pragma once
-// Wall time of consecutive stages, appended as (stage, ms) in order.
+// Wall time of consecutive stages, appended as (stage, ms) in order; and the CPU time of
+// the calling thread.
 #include <chrono>
+#include <ctime>
 #include <string>
 #include <utility>
 #include <vector>
@@ -21,5 +23,13 @@ class StageTimer {
   std::vector<std::pair<std::string, double>>* out_;
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
+
+// CPU time of the calling thread (ms). A study runs each part's measurement on one
+// thread, so this is its one-thread cost even while other parts run in parallel.
+inline double ThreadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
 
 }  // namespace flatscan
