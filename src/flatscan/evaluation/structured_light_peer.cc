@@ -183,13 +183,24 @@ StructuredLightMeasurement MeasureStructuredLight(const StructuredLightRig& rig,
   return m;
 }
 
+FlatnessValues TrueValuesOverCells(const ProjectorView& view, const std::vector<cv::Rect>& cells, double side_height_mm) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> heights;
+  for (const cv::Rect& cell : cells) {
+    const cv::Scalar mean = cv::mean(view.point(cell));
+    points.emplace_back(mean[0], mean[1], mean[2]);
+    heights.push_back(mean[2] - side_height_mm);
+  }
+  return ComputeFlatness(points, heights);
+}
+
 const char* PhaseMethodName(PhaseMethod method) {
   return method == PhaseMethod::kOpenCvPsp ? "OpenCV PSP" : "per-pixel three-step";
 }
 
 namespace {
 
-void Summarize(StructuredLightRow& row, const std::vector<ShotJob>& jobs) {
+void Summarize(StructuredLightRow& row, const std::vector<ShotJob>& jobs, const std::vector<double>& seen_errors) {
   std::vector<double> errors, decode_ms;
   for (size_t i = 0; i < row.shots.size(); ++i) {
     const StructuredLightMeasurement& m = row.shots[i];
@@ -198,6 +209,7 @@ void Summarize(StructuredLightRow& row, const std::vector<ShotJob>& jobs) {
     decode_ms.push_back(m.decode_ms);
   }
   row.errors = SummarizeErrors(errors);
+  row.errors_seen = SummarizeErrors(seen_errors);
   row.measured = row.errors.count;
   if (row.measured == 0) return;
   const double truth = jobs.front().shot.truth.flatness_mm;
@@ -214,7 +226,9 @@ StructuredLightStudy RunStructuredLightStudy(const Station& station, const std::
   const StructuredLightRig rig = BuildStructuredLightRig(station, spec);
   const StructuredLightPatterns patterns = MakeStructuredLightPatterns(spec);
   StructuredLightStudy study{spec, static_cast<int>(jobs.size()), {}};
-  for (PhaseMethod method : {PhaseMethod::kOpenCvPsp, PhaseMethod::kPerPixel}) study.rows.push_back({method, {}, 0, 0, 0, 0, 0, {}});
+  for (PhaseMethod method : {PhaseMethod::kOpenCvPsp, PhaseMethod::kPerPixel})
+    study.rows.push_back({method, {}, 0, 0, 0, 0, 0, {}, {}});
+  std::vector<std::vector<double>> seen_errors(study.rows.size());
   for (const ShotJob& job : jobs) {
     const ProjectorView view = TraceProjectorView(rig, job.geometry, job.shot.truth.support_from_part);
     const StructuredLightPatterns captured = CapturePatterns(rig, view, patterns, job.noise_seed ^ 0x5717C7ull);
@@ -224,8 +238,14 @@ StructuredLightStudy RunStructuredLightStudy(const Station& station, const std::
     for (StructuredLightRow& row : study.rows)
       row.shots.push_back(MeasureStructuredLight(rig, captured, job.geometry.SideHeight(), row.method));
     cv::setNumThreads(threads);
+    for (size_t r = 0; r < study.rows.size(); ++r) {
+      const StructuredLightMeasurement& m = study.rows[r].shots.back();
+      if (m.measured)
+        seen_errors[r].push_back(m.values.flatness_mm -
+                                 TrueValuesOverCells(view, m.cell_rects, job.geometry.SideHeight()).flatness_mm);
+    }
   }
-  for (StructuredLightRow& row : study.rows) Summarize(row, jobs);
+  for (size_t r = 0; r < study.rows.size(); ++r) Summarize(study.rows[r], jobs, seen_errors[r]);
   return study;
 }
 

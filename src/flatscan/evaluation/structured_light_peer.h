@@ -80,6 +80,11 @@ struct StructuredLightMeasurement {
 StructuredLightMeasurement MeasureStructuredLight(const StructuredLightRig& rig, const StructuredLightPatterns& captured,
                                                   double side_height_mm, PhaseMethod method = PhaseMethod::kOpenCvPsp);
 
+// The simulator's true values over the same cells (each cell's mean true point): what
+// the peer would report with a perfect decoding, to tell its measuring error apart from
+// what it measures (the top surface inside the edge band, not the rim).
+FlatnessValues TrueValuesOverCells(const ProjectorView& view, const std::vector<cv::Rect>& cells, double side_height_mm);
+
 // The peer's rows of Table 1 over the same shots as flatscan's repeat study: one row per
 // phase method, both decoded from the same captured images.
 struct StructuredLightRow {
@@ -87,7 +92,8 @@ struct StructuredLightRow {
   std::vector<StructuredLightMeasurement> shots;
   int measured = 0;
   double mean_mm = 0, variance_mm2 = 0, relative_error = 0, median_decode_ms = 0;
-  ErrorSummary errors;  // flatness_mm - the shot's true flatness_mm
+  ErrorSummary errors;       // flatness_mm - the shot's true flatness_mm (the rim's)
+  ErrorSummary errors_seen;  // flatness_mm - the true flatness_mm over the cells it measured
 };
 struct StructuredLightStudy {
   StructuredLightSpec spec;

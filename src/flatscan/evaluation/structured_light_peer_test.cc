@@ -40,18 +40,6 @@ Shot Capture(const PartGeometry& geometry, const SurfaceFinish& finish, double r
   return s;
 }
 
-// The true values over the cells the peer averaged: each cell's mean true point.
-FlatnessValues TrueValuesOverCells(const Shot& s, const StructuredLightMeasurement& m, double side_height_mm) {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<double> heights;
-  for (const cv::Rect& cell : m.cell_rects) {
-    const cv::Scalar mean = cv::mean(s.view.point(cell));
-    points.emplace_back(mean[0], mean[1], mean[2]);
-    heights.push_back(mean[2] - side_height_mm);
-  }
-  return ComputeFlatness(points, heights);
-}
-
 TEST(StructuredLightPeer, DecodesTheProjectorColumnToAFewHundredthsOfAPixelAwayFromThePartsEdge) {
   const Shot s = Capture(Sheet({0.05, 0.02, 0.03}), SurfaceFinish::Matte());
   const cv::Mat1f columns = DecodeProjectorColumns(s.rig.spec, s.captured, PhaseMethod::kPerPixel);
@@ -77,7 +65,7 @@ TEST(StructuredLightPeer, MeasuresTheTopItSeesWithinFiveMicrometresButMissesTheR
   const StructuredLightMeasurement m = MeasureStructuredLight(s.rig, s.captured, part.SideHeight(), PhaseMethod::kPerPixel);
   ASSERT_TRUE(m.measured) << m.error;
   EXPECT_GT(m.cells, 1500);
-  const FlatnessValues seen = TrueValuesOverCells(s, m, part.SideHeight());
+  const FlatnessValues seen = TrueValuesOverCells(s.view, m.cell_rects, part.SideHeight());
   EXPECT_NEAR(m.values.flatness_mm, seen.flatness_mm, 0.005);
   EXPECT_NEAR(m.values.lsq_pv_mm, seen.lsq_pv_mm, 0.005);
   EXPECT_NEAR(m.values.minzone_mm, seen.minzone_mm, 0.005);

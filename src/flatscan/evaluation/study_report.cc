@@ -84,6 +84,7 @@ nlohmann::json StructuredLightJson(const StructuredLightStudy& sl) {
                     {"relative_error", r.relative_error},
                     {"median_decode_ms", r.median_decode_ms},
                     {"errors", ErrorJson(r.errors)},
+                    {"errors_over_what_it_sees", ErrorJson(r.errors_seen)},
                     {"shots", shots}});
   }
   const StructuredLightSpec& s = sl.spec;
@@ -138,8 +139,10 @@ std::string RepeatMarkdown(const RepeatStudy& st, const RepeatStudyOptions& o, c
         "so it misses the rim's own extremes and sees what lies inside the rim.\n",
         sl->shots, sl->spec.triangulation_deg, sl->spec.fringe_periods, sl->spec.finish.albedo, sl->spec.finish.specular,
         sl->spec.finish.shininess);
-    for (const StructuredLightRow& r : sl->rows)
+    for (const StructuredLightRow& r : sl->rows) {
       md += fmt::format("- structured light, {} phase: ", PhaseMethodName(r.method)) + ErrorLine(r.errors);
+      md += "  against the true flatness of the surface it measured (the top inside the edge band): " + ErrorLine(r.errors_seen);
+    }
   }
   return md;
 }

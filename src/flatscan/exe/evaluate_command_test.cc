@@ -45,6 +45,8 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
     EXPECT_LT(row["relative_error"].get<double>(), 0.10) << row.dump();
     EXPECT_GT(row["median_decode_ms"].get<double>(), 0.0);
   }
+  // Against the truth over the surface it measured, the per-pixel phase is within a few um.
+  EXPECT_LT(peer["rows"][1]["errors_over_what_it_sees"]["max_abs_mm"].get<double>(), 0.005) << peer["rows"][1].dump();
   EXPECT_NE(r.out.find("| structured light, per-pixel three-step phase (simulated) | 0.3"), std::string::npos) << r.out;
   const auto& batch = j["batch"];
   EXPECT_EQ(batch["parts"].size(), 6u);

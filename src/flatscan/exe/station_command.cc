@@ -199,6 +199,7 @@ class StationCommand : public Command {
       modbus = std::make_unique<ModbusServer>(address, port, recipes_.size(),
                                               [&station](size_t index) { station.SetActiveRecipe(index); });
       if (sources.trigger) modbus->SetTrigger(sources.trigger);
+      modbus->SetStudyTagsHandler([&station](const StudyTags& tags) { station.SetStudyTags(tags); });
       station.AddPublisher(modbus.get());
     }
     const std::unique_ptr<StationHttpServer> http = MakeHttp(*store, station, recipe_names, sources.cameras, shifts, calibration);

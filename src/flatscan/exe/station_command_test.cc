@@ -550,6 +550,9 @@ TEST_F(StationCommand, ATriggeredStationMeasuresOnePairPerPlcTrigger) {
   EXPECT_EQ(r[9], 0) << "measured without a trigger";
   std::vector<int> sequences;
   for (int part = 1; part <= 5; ++part) {
+    // Gauge-study tags for this part (registers 13-15): part 7 three times, then part 8.
+    const uint16_t tags[3] = {static_cast<uint16_t>(part <= 3 ? 7 : 8), 0, static_cast<uint16_t>(part <= 3 ? part : part - 3)};
+    ASSERT_EQ(modbus_write_registers(plc, 13, 3, tags), 3);
     ASSERT_EQ(modbus_write_register(plc, 12, 1), 1);
     ASSERT_TRUE(read());
     EXPECT_TRUE(r[1] == 2 || r[9] > 0) << "part " << part << ": state " << r[1] << ", pending " << r[9];
@@ -563,7 +566,11 @@ TEST_F(StationCommand, ATriggeredStationMeasuresOnePairPerPlcTrigger) {
   station.join();
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(sequences, (std::vector<int>{1, 2, 3, 4, 5}));
-  EXPECT_EQ(Results("trigger.db").size(), 5u);
+  const std::vector<json> records = Results("trigger.db");
+  ASSERT_EQ(records.size(), 5u);
+  const char* expected[5][2] = {{"7", "1"}, {"7", "2"}, {"7", "3"}, {"8", "1"}, {"8", "2"}};
+  for (size_t i = 0; i < records.size(); ++i)
+    EXPECT_EQ(records[i]["study"], (json{{"part", expected[i][0]}, {"appraiser", ""}, {"trial", expected[i][1]}})) << i;
   const auto lone = Station("good.csv", "trigger-bad.db", "--trigger software");
   EXPECT_EQ(lone.exit_code, 2);
   EXPECT_NE(lone.err.find("--trigger software needs --modbus (the PLC triggers there)"), std::string::npos) << lone.err;

@@ -122,6 +122,11 @@ void ModbusServer::SetTrigger(std::function<void()> trigger) {
   trigger_ = std::move(trigger);
 }
 
+void ModbusServer::SetStudyTagsHandler(std::function<void(const StudyTags&)> set_tags) {
+  std::lock_guard lock(mutex_);
+  set_study_tags_ = std::move(set_tags);
+}
+
 uint16_t ModbusServer::Register(ModbusRegister r) const {
   std::lock_guard lock(mutex_);
   return registers_->tab_registers[r];
@@ -227,6 +232,11 @@ void ModbusServer::AfterWriteLocked(const uint8_t* request, int header) {
                                                            : "the station's source is not triggered (--trigger software)");
     }
     r[kTrigger] = 0;
+  }
+  if (set_study_tags_ && (Writes(request, header, kStudyPart) || Writes(request, header, kStudyAppraiser) ||
+                          Writes(request, header, kStudyTrial))) {
+    const auto tag = [&](ModbusRegister t) { return r[t] == 0 ? std::string() : std::to_string(r[t]); };
+    set_study_tags_({tag(kStudyPart), tag(kStudyAppraiser), tag(kStudyTrial)});
   }
   r[kActiveRecipe] = active_recipe_;
   r[kHeartbeat] = heartbeat_;

@@ -1,6 +1,6 @@
 #pragma once
 // The PLC output: a Modbus TCP server in the station (libmodbus). The PLC reads holding
-// registers (function 3) and writes three of them (functions 6 and 16); the table with
+// registers (function 3) and writes six of them (functions 6 and 16); the table with
 // units and encodings is in docs/plc.md (the controls engineer's page).
 //
 // Handshake: every committed record joins a queue of results the PLC has not
@@ -32,7 +32,7 @@ struct _modbus_mapping_t;
 
 namespace flatscan {
 
-// Holding register addresses (0-based, function 3).
+// Holding register addresses (0-based, function 3). The PLC writes 3, 10, 12 and 13-15.
 enum ModbusRegister : int {
   kHeartbeat = 0,        // +1 every second while the server runs (wraps at 65535)
   kStationState = 1,     // ModbusStationState
@@ -47,7 +47,10 @@ enum ModbusRegister : int {
   kAcknowledge = 10,     // written by the PLC: the low word of the shown sequence
   kDropped = 11,         // results dropped unacknowledged (queue full), saturating at 65535
   kTrigger = 12,         // written by the PLC: 1 takes the next pair (--trigger software); the station clears it (0)
-  kRegisterCount = 13,
+  kStudyPart = 13,       // written by the PLC: gauge-study tags of the pairs taken from now on (0: none),
+  kStudyAppraiser = 14,  //   kept until it writes them again (docs/plc.md, "Gauge studies")
+  kStudyTrial = 15,
+  kRegisterCount = 16,
 };
 
 // kSourceFailing: running, but its source (the cameras) failed not_ready_after pairs in a
@@ -90,6 +93,11 @@ class ModbusServer : public RecordPublisher {
   // a trigger is refused (logged; the station's source is not triggered).
   void SetTrigger(std::function<void()> trigger);
 
+  // A write of the study registers (13-15) calls `set_tags` (from the server's thread)
+  // with their values as decimal text, "" for 0: the tags of the pairs the station takes
+  // from then on (InspectionStation::SetStudyTags).
+  void SetStudyTagsHandler(std::function<void(const StudyTags&)> set_tags);
+
   // The register values now (for tests and the log).
   uint16_t Register(ModbusRegister r) const;
 
@@ -108,6 +116,7 @@ class ModbusServer : public RecordPublisher {
   size_t recipe_count_;
   std::function<void(size_t)> switch_recipe_;
   std::function<void()> trigger_;
+  std::function<void(const StudyTags&)> set_study_tags_;
   size_t triggers_waiting_ = 0;  // triggers whose result is not yet published
   _modbus* context_ = nullptr;
   _modbus_mapping_t* registers_ = nullptr;

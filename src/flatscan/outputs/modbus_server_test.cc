@@ -46,6 +46,10 @@ class Plc {
     return r;
   }
   bool Write(ModbusRegister r, uint16_t value) { return modbus_write_register(context_, r, value) == 1; }
+  bool WriteMany(ModbusRegister first, std::vector<uint16_t> values) {
+    const int n = static_cast<int>(values.size());
+    return modbus_write_registers(context_, first, n, values.data()) == n;
+  }
 
   struct Seen {
     int64_t sequence;
@@ -211,6 +215,25 @@ TEST(ModbusServer, ATriggerShowsBusyUntilItsResult) {
   ASSERT_TRUE(plc.Write(kTrigger, 1));  // a stopped station is not triggered
   EXPECT_EQ(plc.Read()[kStationState], uint16_t(ModbusStationState::kNotReady));
   EXPECT_EQ(triggers, 4);
+}
+
+// The PLC's gauge-study registers: each write of them hands the three values to the
+// station as tags (decimal text, "" for 0); they keep what the PLC wrote.
+TEST(ModbusServer, StudyRegistersTagThePairsTakenFromThenOn) {
+  const int port = testing::FreeLoopbackPort();
+  ModbusServer server("127.0.0.1", port, 1, [](size_t) {});
+  Plc plc(port);
+  ASSERT_TRUE(plc.Connect());
+  ASSERT_TRUE(plc.Write(kStudyPart, 9));  // no handler yet: kept, nothing called
+  std::vector<StudyTags> seen;
+  server.SetStudyTagsHandler([&](const StudyTags& tags) { seen.push_back(tags); });
+  ASSERT_TRUE(plc.Write(kStudyTrial, 2));
+  ASSERT_TRUE(plc.Write(kAcknowledge, 5));  // not a study register: no call
+  ASSERT_TRUE(plc.WriteMany(kStudyPart, {12, 3, 1}));
+  ASSERT_TRUE(plc.WriteMany(kStudyPart, {0, 0, 0}));
+  const auto r = plc.Read();  // served after the writes were handled
+  EXPECT_EQ(r[kStudyPart], 0);
+  EXPECT_EQ(seen, (std::vector<StudyTags>{{"9", "", "2"}, {"12", "3", "1"}, {"", "", ""}}));
 }
 
 TEST(ModbusServer, AnAddressItCannotListenOnIsAnInputError) {

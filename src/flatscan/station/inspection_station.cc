@@ -124,6 +124,11 @@ InspectionStation::InspectionStation(std::vector<LoadedRecipe> recipes, PairSour
   FLATSCAN_CHECK(options_.max_in_flight >= 1);
 }
 
+void InspectionStation::SetStudyTags(const StudyTags& tags) {
+  std::lock_guard lock(study_mutex_);
+  study_tags_ = tags;
+}
+
 void InspectionStation::SetActiveRecipe(size_t index) {
   FLATSCAN_CHECK(index < recipes_.size());
   active_ = index;
@@ -270,6 +275,10 @@ void InspectionStation::RunPipeline(const std::atomic<bool>& stop) {
       if (active != source_recipe) source_.UseRecipe(recipes_[active].recipe);
       source_recipe = active;
       if (auto pair = source_.Next(kPollWait)) {
+        if (pair->study.Empty()) {
+          std::lock_guard lock(study_mutex_);
+          pair->study = study_tags_;
+        }
         ++in_flight;
         ++counts_.taken;
         return {std::move(*pair), active_.load()};  // a switch while waiting counts (the PLC's order)

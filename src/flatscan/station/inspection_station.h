@@ -15,6 +15,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -93,6 +94,10 @@ class InspectionStation {
   // Publishers get each record once it is committed, in this order.
   void AddPublisher(RecordPublisher* publisher) { publishers_.push_back(publisher); }
 
+  // Gauge-study tags for the pairs taken from now on that carry none of their own (a
+  // PLC's study registers: docs/plc.md); empty tags: none. Any thread.
+  void SetStudyTags(const StudyTags& tags);
+
   // Switches the recipe for the pairs taken from now on (line outputs, web page).
   void SetActiveRecipe(size_t index);
   size_t ActiveRecipe() const { return active_; }
@@ -114,6 +119,8 @@ class InspectionStation {
   std::vector<RecordPublisher*> publishers_;
   ImageArchive* archive_ = nullptr;
   std::atomic<size_t> active_{0};
+  mutable std::mutex study_mutex_;
+  StudyTags study_tags_;
   StationCounts counts_;
   int source_faults_ = 0;  // pairs in a row the source could not deliver (the output stage's)
 };
