@@ -188,6 +188,7 @@ FlatnessValues TrueValuesOverCells(const ProjectorView& view, const std::vector<
   std::vector<double> heights;
   for (const cv::Rect& cell : cells) {
     const cv::Scalar mean = cv::mean(view.point(cell));
+    if (!std::isfinite(mean[2])) continue;  // a cell the peer took for the top over the part's side
     points.emplace_back(mean[0], mean[1], mean[2]);
     heights.push_back(mean[2] - side_height_mm);
   }

@@ -82,7 +82,8 @@ StructuredLightMeasurement MeasureStructuredLight(const StructuredLightRig& rig,
 
 // The simulator's true values over the same cells (each cell's mean true point): what
 // the peer would report with a perfect decoding, to tell its measuring error apart from
-// what it measures (the top surface inside the edge band, not the rim).
+// what it measures (the top surface inside the edge band, not the rim). A cell with a pixel
+// whose ray meets no top (the part's side) is left out.
 FlatnessValues TrueValuesOverCells(const ProjectorView& view, const std::vector<cv::Rect>& cells, double side_height_mm);
 
 // The peer's rows of Table 1 over the same shots as flatscan's repeat study: one row per
