@@ -49,6 +49,8 @@ class GaugeCommand : public Command {
     AddCommon(type1_, "a CSV with the column value (mm) and optionally trial and part");
     Fills(type1_->add_option("--reference", reference_mm_, "the reference part's calibrated value (mm)")->required(),
           "reference_mm");
+    type1_->add_option("--part", part_, "with --store: the reference part's id (the records' study part); the "
+                                        "store may hold other studies' parts");
 
     linearity_ = sub_->add_subcommand("linearity", "Bias and linearity over the range (AIAG MSA 4th edition): "
                                                    "reference parts measured several times each.");
@@ -127,6 +129,8 @@ class GaugeCommand : public Command {
 
   // A type 1 study's values: its CSV (one part by construction) or the tagged records of one part.
   std::vector<double> Type1Values() const {
+    if (!part_.empty() && store_.empty())
+      ThrowInputError("--part '{}': it chooses the records of --store; a --data file holds one part", part_);
     const std::vector<GaugeObservation> data = Observations([](const std::filesystem::path& file) {
       std::vector<GaugeObservation> observations;
       for (double value : ReadType1Csv(file)) observations.push_back({"", "", "", value, 0});
@@ -134,12 +138,15 @@ class GaugeCommand : public Command {
     });
     std::vector<double> values;
     for (const GaugeObservation& o : data) {
-      if (o.part != data.front().part)
+      if (!part_.empty() && o.part != part_) continue;
+      if (o.part != data.front().part && part_.empty())
         ThrowInputError("--store '{}': records of part '{}' and of part '{}': a type 1 study measures one reference "
-                        "part (choose the records with --recipe-name)",
+                        "part (choose it with --part)",
                         store_, data.front().part, o.part);
       values.push_back(o.value);
     }
+    if (!part_.empty() && values.empty())
+      ThrowInputError("--part '{}': {} has no value of that part", part_, Source());
     return values;
   }
 
@@ -207,7 +214,7 @@ class GaugeCommand : public Command {
   }
 
   CLI::App *grr_ = nullptr, *type1_ = nullptr, *linearity_ = nullptr, *agreement_ = nullptr;
-  std::string data_, store_, recipe_name_, json_, html_, reference_, reference_points_, quantity_ = "flatness_mm";
+  std::string data_, store_, recipe_name_, json_, html_, reference_, reference_points_, part_, quantity_ = "flatness_mm";
   double tolerance_mm_ = 0, reference_mm_ = 0;
   GaugeRROptions grr_options_;
 };

@@ -194,6 +194,24 @@ TEST(GaugeCommand, GrrFromAStationsTaggedRecords) {
   for (const char* key : {"ev", "pv", "grr", "ndc"}) EXPECT_EQ(a[key], b[key]) << key;
   EXPECT_LT(a["grr"].get<double>(), 0.003);  // true rig and plane, compact: micrometres
 
+  // A type 1 study reads one part: the store holds five, so it asks for --part, which
+  // chooses one (two values here: too few for a type 1 study, which says how many).
+  r = testing::RunFlatscan(fmt::format("gauge type1 --store {} --tolerance 0.25 --reference 0.05", store.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("records of part 'part_000' and of part 'part_001': a type 1 study measures one reference part "
+                       "(choose it with --part)"),
+            std::string::npos)
+      << r.err;
+  r = testing::RunFlatscan(fmt::format("gauge type1 --store {} --part part_003 --tolerance 0.25 --reference 0.05", store.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("results.db: 2 values: a type 1 study needs at least 25 measurements of the reference part"),
+            std::string::npos)
+      << r.err;
+  r = testing::RunFlatscan(fmt::format("gauge type1 --store {} --part part_9 --tolerance 0.25 --reference 0.05", store.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(fmt::format("--part 'part_9': {} has no value of that part", store.string())), std::string::npos)
+      << r.err;
+
   // A tagged pair that could not be measured: the study is refused, naming it.
   std::ofstream(data / "study.csv", std::ios::app) << "lost,parts/none_left.png,parts/none_right.png,part_000,3\n";
   r = testing::RunFlatscan(fmt::format("station --recipe {} --source pairs:{} --store {} --station-id st-1 "
