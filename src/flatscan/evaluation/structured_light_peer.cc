@@ -155,7 +155,14 @@ StructuredLightMeasurement MeasureStructuredLight(const StructuredLightRig& rig,
                                                   double side_height_mm, PhaseMethod method) {
   StructuredLightMeasurement m;
   const double start = ThreadCpuMs();
-  const cv::Mat3f points = TriangulateColumns(rig, DecodeProjectorColumns(rig.spec, captured, method));
+  cv::Mat3f points;
+  try {
+    points = TriangulateColumns(rig, DecodeProjectorColumns(rig.spec, captured, method));
+  } catch (const cv::Exception& e) {  // e.g. no fringe frequency to band-pass around
+    m.error = fmt::format("structured light: the fringes could not be decoded ({})", e.msg);
+    m.decode_ms = ThreadCpuMs() - start;
+    return m;
+  }
   cv::Mat1b top(points.size(), uchar{0});
   for (int v = 0; v < points.rows; ++v)
     for (int u = 0; u < points.cols; ++u) top(v, u) = points(v, u)[2] > 0.5 * side_height_mm ? 255 : 0;  // NaN: no

@@ -29,9 +29,9 @@ struct Shot {
 };
 
 Shot Capture(const PartGeometry& geometry, const SurfaceFinish& finish, double rotation_deg = 20) {
-  StructuredLightSpec spec;  // a 720 x 560 px region (12.7 x 9.9 mm) keeps the tests short
+  StructuredLightSpec spec;  // a 720 x 576 px region (12.7 x 10.1 mm) keeps the tests short
   spec.roi_width = 720;
-  spec.roi_height = 560;
+  spec.roi_height = 580;     // cut to 576 (2^6 3^2), a size cv::dft takes whole
   spec.finish = finish;
   Shot s{BuildStructuredLightRig(BuildStation(ScenePreset("paper")), spec), RestAndPlacePart(geometry, rotation_deg, {0.5, -0.3}),
          {}, {}};
@@ -95,9 +95,9 @@ double CellHeightErrorP99(const Shot& s, const StructuredLightMeasurement& m, Ph
 }
 
 // OpenCV's PSP band-passes each image with a fixed 42 x 42-bin window around the fringe
-// frequency: the part's edge rings through it across the part (78 um at the 99th
-// percentile of the cells here, in a 720 x 560 px image; about 10 um in the 1280 x 1024 px
-// image of evaluate), where the per-pixel formula is off by under 1 um.
+// frequency: the part's edge rings through it across the part (5.2 um at the 99th
+// percentile of the cells here, in a 720 x 576 px image; about 10 um in the 1280 x 1024 px
+// image of evaluate), where the per-pixel formula is off by 0.8 um.
 TEST(StructuredLightPeer, OpenCvsFilteredPhaseRipplesWhereThePerPixelPhaseDoesNot) {
   const PartGeometry part = Sheet({0.05, 0.02, 0.03});
   const Shot s = Capture(part, SurfaceFinish::Matte());

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include <Eigen/Geometry>
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
@@ -107,6 +108,15 @@ double ReflectedGain(const StructuredLightRig& rig, const PixelTrace& t, const E
   return rig.spec.exposure_grey * (diffuse + specular);
 }
 
+// The largest n' <= n that cv::dft takes without padding (2^a 3^b 5^c). OpenCV's PSP phase
+// (SinusoidalPattern::computePhaseMap) pads other sizes with zeros, whose dark band rings
+// through its band-pass filter (78 um at 720 x 560 px against 5 um at 720 x 576), and then
+// reads the shadow mask over the padded size, past the mask's end.
+int DftFriendly(int n) {
+  while (n > 1 && cv::getOptimalDFTSize(n) != n) --n;
+  return n;
+}
+
 void CheckSpec(const StructuredLightSpec& s) {
   if (!(s.triangulation_deg > 5 && s.triangulation_deg < 60))
     ThrowFieldError("structured_light.triangulation_deg", "expected 5 to 60 degrees, got {}", s.triangulation_deg);
@@ -127,7 +137,8 @@ StructuredLightRig BuildStructuredLightRig(const Station& station, const Structu
   StructuredLightRig rig;
   rig.spec = spec;
   rig.camera = station.GetCamera(RigSide::kLeft);
-  const int roi_width = std::min(spec.roi_width, rig.camera.width), roi_height = std::min(spec.roi_height, rig.camera.height);
+  const int roi_width = DftFriendly(std::min(spec.roi_width, rig.camera.width));
+  const int roi_height = DftFriendly(std::min(spec.roi_height, rig.camera.height));
   rig.camera.cx -= 0.5 * (rig.camera.width - roi_width);
   rig.camera.cy -= 0.5 * (rig.camera.height - roi_height);
   rig.camera.width = roi_width;

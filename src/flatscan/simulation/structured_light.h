@@ -11,7 +11,8 @@
 // (B, 0, D), B = D tan(triangulation_deg), aimed at the origin, its columns across x, so
 // that a height change dz moves a fringe on the part by dz tan(triangulation_deg) along x.
 // The camera is the station's camera 1 (intrinsics and lens distortion) read out in a
-// region of interest around the image centre (at most the sensor); the projector is a
+// region of interest around the image centre (at most the sensor, and cut to a size
+// cv::dft takes whole, as OpenCV's phase decoder needs); the projector is a
 // pinhole without distortion whose image spans `projector_field_mm` across at the origin
 // (0: 1.2 times the camera region's field, so the fringes cover everything it sees).
 //

@@ -64,6 +64,19 @@ TEST(StructuredLight, ImagesAPatternWithTheLitPixelsBrightAndTheShadowDark) {
   EXPECT_NEAR(image(static_cast<int>(centre.y()), static_cast<int>(centre.x())), 6 + 200 * 0.7 * std::cos(25 * M_PI / 180), 8);
 }
 
+TEST(StructuredLight, CutsTheCameraRegionToASizeTheFourierTransformTakesWhole) {
+  StructuredLightSpec spec;
+  spec.roi_width = 721;
+  spec.roi_height = 580;
+  const StructuredLightRig rig = BuildStructuredLightRig(BuildStation(ScenePreset("paper")), spec);
+  EXPECT_EQ(rig.camera.width, 720);   // 2^4 3^2 5
+  EXPECT_EQ(rig.camera.height, 576);  // 2^6 3^2
+  spec.roi_width = spec.roi_height = 100000;  // at most the sensor, 2592 x 1944 (2^5 3^4, 2^3 3^5)
+  const StructuredLightRig whole = BuildStructuredLightRig(BuildStation(ScenePreset("paper")), spec);
+  EXPECT_EQ(whole.camera.width, 2592);
+  EXPECT_EQ(whole.camera.height, 1944);
+}
+
 TEST(StructuredLight, RefusesASpecItCannotBuild) {
   StructuredLightSpec spec;
   spec.fringe_periods = 60;
