@@ -63,7 +63,8 @@ struct UncertaintyOptions {
   // plane (so that only the method's own errors remain; `flatscan evaluate --batch 60
   // --seed 3 --true-calibration`) needs 0.007 px on the 12 mm-lens rig and 0.002 px on
   // the paper rig for 95% of its parts to lie within U; the per-point pixel-phase error
-  // is 0.014 px RMS at a blur of 0.7-0.8 px (docs/design.md), and the fit averages it.
+  // is 0.014 px RMS at a blur of 0.7-0.8 px (the twin's sampled blur: docs/simulator.md),
+  // and the fit averages it.
   double method_disparity_px = 0.005;
 };
 
