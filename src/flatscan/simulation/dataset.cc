@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "flatscan/io/atomic_output.h"
 #include "flatscan/io/pairs_csv.h"
@@ -23,21 +24,49 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kImageMarginPx = 24.0;  // parts and boards stay this far from the border
 
-// Linear radiance -> blurred, lit (vignetting and the defects' non-uniformity), noisy
+// The camera whose every pixel is divided into n x n sub-pixels (optics.blur_subpixels):
+// sub-pixel U of row pixel u is U = n u + j, j = 0..n-1, centred at u + (j - (n - 1) / 2) / n.
+Camera Subdivided(const Camera& cam, int n) {
+  Camera c = cam;
+  c.width *= n;
+  c.height *= n;
+  c.fx *= n;
+  c.fy *= n;
+  c.cx = n * cam.cx + (n - 1) / 2.0;
+  c.cy = n * cam.cy + (n - 1) / 2.0;
+  return c;
+}
+
+// The camera the radiance is rendered with (docs/simulator.md, "The blur is sampled").
+Camera RenderingCamera(const Station& st, RigSide camera) {
+  return Subdivided(st.GetCamera(camera), st.scene.optics.blur_subpixels);
+}
+
+// Linear radiance (at the rendering camera's resolution) -> blurred, averaged over
+// each pixel's sub-pixels, lit (vignetting and the defects' non-uniformity), noisy
 // 8-bit image.
 cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, const std::vector<cv::Rect>& regions,
                       uint64_t noise_seed, const ImageDefects& defects = {}) {
   const Camera& cam = st.GetCamera(camera);
   const int side = camera == RigSide::kLeft ? 0 : 1;  // the defects' per-camera index
+  const int n = st.scene.optics.blur_subpixels;
   const double sigma0 = st.scene.optics.blur_sigma_px;
   if (defects.f_number > 0) {
+    if (n != 1)
+      ThrowInputError("scene: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on "
+                      "whole pixels only (expected blur_subpixels 1)", n);
     const CameraSpec& lens = side == 0 ? st.scene.left_camera : st.scene.right_camera;
     const double focus_error = defects.focus_error_mm[side];
     BlurRegionsVarying(radiance, [&](const cv::Rect& rect) {
       return DefocusSigma(cam, st.CamFromSupport(camera), lens, sigma0, defects.f_number, focus_error, rect);
     }, regions);
   } else {
-    BlurRegions(radiance, sigma0, regions);
+    BlurRegions(radiance, n * sigma0, regions);
+  }
+  if (n > 1) {
+    cv::Mat1f pixels;
+    cv::resize(radiance, pixels, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);  // n x n block means
+    radiance = pixels;
   }
   const double vignetting = st.scene.lighting.vignetting;
   if (defects.Any())
@@ -71,7 +100,7 @@ PlanarOccluder SpeckOccluder(const DustSpeck& s) {
 
 void DrawOccluder(const Station& st, RigSide camera, const Occluder& occ, double grey, cv::Mat1f& radiance,
                   std::vector<cv::Rect>& regions) {
-  const CoverageTile tile = RenderCoverage(st.GetCamera(camera), st.CamFromSupport(camera), occ);
+  const CoverageTile tile = RenderCoverage(RenderingCamera(st, camera), st.CamFromSupport(camera), occ);
   BlendCoverage(radiance, tile, grey);
   if (!tile.roi.empty()) regions.push_back(tile.roi);
 }
@@ -162,7 +191,7 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
 cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry& geometry,
                           const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers,
                           const ImageDefects& defects) {
-  const Camera& cam = st.GetCamera(camera);
+  const Camera cam = RenderingCamera(st, camera);
   const LightingSpec& light = st.scene.lighting;
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(light.backlight_grey));
   std::vector<cv::Rect> regions;
@@ -172,7 +201,8 @@ cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry&
   const CoverageTile part = RenderCoverage(cam, st.CamFromSupport(camera), PartOccluder(geometry, pose));
   BlendCoverage(radiance, part, light.part_grey);
   if (!part.roi.empty()) regions.push_back(part.roi);
-  const cv::Rect halo = AddHalo(radiance, part, light.backlight_grey, defects.halo_gain, defects.halo_width_px);
+  const cv::Rect halo = AddHalo(radiance, part, light.backlight_grey, defects.halo_gain,
+                                 st.scene.optics.blur_subpixels * defects.halo_width_px);
   if (!halo.empty()) regions.push_back(halo);
   if (with_markers)
     for (const auto& m : MarkerOccluders(st)) DrawOccluder(st, camera, *m, light.marker_grey, radiance, regions);
@@ -180,7 +210,7 @@ cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry&
 }
 
 cv::Mat1b RenderMarkerImage(const Station& st, RigSide camera, uint64_t noise_seed) {
-  const Camera& cam = st.GetCamera(camera);
+  const Camera cam = RenderingCamera(st, camera);
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(st.scene.lighting.backlight_grey));
   std::vector<cv::Rect> regions;
   for (const auto& m : MarkerOccluders(st)) DrawOccluder(st, camera, *m, st.scene.lighting.marker_grey, radiance, regions);
@@ -200,7 +230,7 @@ cv::Mat1b RenderBoardImage(const Station& st, RigSide camera, const Rigid3d& sup
   const PlanarOccluder squares(board_from_support,
                                [=](const Eigen::Vector2d& p) { return CheckerSdf(p, cols, rows, s); },
                                {{0, 0}, {w, 0}, {w, h}, {0, h}});
-  const Camera& cam = st.GetCamera(camera);
+  const Camera cam = RenderingCamera(st, camera);
   const LightingSpec& light = st.scene.lighting;
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(light.background_grey));
   std::vector<cv::Rect> regions;

@@ -231,6 +231,7 @@ void BindScene(SceneConfig& s, Binder& b) {
   });
   b.Section("optics", [&] {
     b.Number("blur_sigma_px", s.optics.blur_sigma_px, 0.0, 10.0);
+    b.Integer("blur_subpixels", s.optics.blur_subpixels, 1, 4);
     b.Number("noise_sigma_grey", s.optics.noise_sigma_grey, 0.0, 50.0);
   });
   b.Section("image_effects", [&] {

@@ -57,6 +57,11 @@ struct LightingSpec {
 
 struct OpticsSpec {
   double blur_sigma_px = 1.0;       // Gaussian lens PSF
+  // The blur rendered on n x n sub-pixels per pixel, then averaged over each pixel (the
+  // lens blurs the light before the pixel integrates it). 1: a Gaussian sampled at whole
+  // pixels, which moves an edge with its pixel phase below about 1 px of blur
+  // (docs/simulator.md, "The blur is sampled"); 3: within 0.0005 px.
+  int blur_subpixels = 1;
   double noise_sigma_grey = 2.0;    // Gaussian sensor noise
 };
 
