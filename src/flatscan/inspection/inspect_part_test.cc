@@ -55,17 +55,9 @@ TEST(InspectPart, FlatnessWithinMicronsAndThicknessCorrectionMatters) {
   EXPECT_GT(uncorrected[uncorrected.size() / 2], 0.05);  // a fraction of the 0.1-0.3 mm thickness
 }
 
-// The compact rig (12 mm lenses, strong distortion, 40 mm baseline) on parts at
-// rotations where the cameras see different edges at every corner, and two parts
-// turned so that whole sides run along the epipolar rows (completed from the warp
-// surface). Guards the exact silhouette triangulation, the dropping of points where
-// a line of sight grazes a side face, and the completion not running away.
-// A part resting tilted (here about 0.019 rad: a strong warp on three contacts) has
-// its side faces tilted with it; taking them along the support normal biased the
-// sides running near the epipolar rows by tens of micrometres (this part: -43 um).
-// The faces are taken along the sheet normal estimated from a first pass.
-TEST(InspectPart, TiltedPartSideFacesFollowTheSheet) {
-  const Station st = BuildStation(ScenePreset("paper"));
+// A 15 x 10 mm sheet of 0.3 mm with two holes and a strong warp, which rests tilted by
+// about 0.019 rad on three contacts and whose faces lean up to 0.10 rad.
+PartGeometry StronglyWarpedPart() {
   PartGeometry g;
   g.half_width = 7.523;
   g.half_height = 5.168;
@@ -73,6 +65,16 @@ TEST(InspectPart, TiltedPartSideFacesFollowTheSheet) {
   g.thickness = 0.296;
   g.holes = {{Eigen::Vector2d(-1.83, 1.81), 0.69}, {Eigen::Vector2d(-4.34, -1.67), 0.79}};
   g.warp = {-0.1212, 0.1662, 0.1103, -0.0475, -0.0397, 0.0567, -0.0252};
+  return g;
+}
+
+// A part resting tilted (here about 0.019 rad: a strong warp on three contacts) has
+// its side faces tilted with it; taking them along the support normal biased the
+// sides running near the epipolar rows by tens of micrometres (this part: -43 um).
+// The faces are taken along the sheet normal estimated from a first pass.
+TEST(InspectPart, TiltedPartSideFacesFollowTheSheet) {
+  const Station st = BuildStation(ScenePreset("paper"));
+  const PartGeometry g = StronglyWarpedPart();
   const PartTruth truth = RestAndPlacePart(g, 348.4, {0.0, 0.0});
   const Eigen::Vector3d part_z = truth.support_from_part.rotation.col(2);
   const double true_tilt = std::acos(part_z.z());
@@ -99,13 +101,7 @@ TEST(InspectPart, TiltedPartSideFacesFollowTheSheet) {
 // 0.0081 rad; measured again at every pass: -1.0 um, 0.0180 rad (true 0.0186 rad).
 TEST(InspectPart, AStronglyWarpedPartsGainsFollowItsFaces) {
   const Station st = BuildStation(ScenePreset("compact"));
-  PartGeometry g;
-  g.half_width = 7.523;
-  g.half_height = 5.168;
-  g.corner_radius = 0.875;
-  g.thickness = 0.296;
-  g.holes = {{Eigen::Vector2d(-1.83, 1.81), 0.69}, {Eigen::Vector2d(-4.34, -1.67), 0.79}};
-  g.warp = {-0.1212, 0.1662, 0.1103, -0.0475, -0.0397, 0.0567, -0.0252};
+  const PartGeometry g = StronglyWarpedPart();
   const PartTruth truth = RestAndPlacePart(g, 32.0, {0.0, 0.0});
   const double true_tilt = std::acos(truth.support_from_part.rotation.col(2).z());
   const auto [left, right] = RenderPair(st, g, truth.support_from_part, 1761);
@@ -151,6 +147,11 @@ TEST(InspectPart, SideFacesFollowTheLocalSheet) {
   EXPECT_LT(centre.values.flatness_mm - truth.flatness_mm, -0.005);
 }
 
+// The compact rig (12 mm lenses, strong distortion, 40 mm baseline) on parts at
+// rotations where the cameras see different edges at every corner, and two parts
+// turned so that whole sides run along the epipolar rows (completed from the warp
+// surface). Guards the exact silhouette triangulation, the dropping of points where
+// a line of sight grazes a side face, and the completion not running away.
 TEST(InspectPart, CompactRigCornersAndRowParallelSides) {
   const Station st = BuildStation(ScenePreset("compact"));
   Random rng(23);
