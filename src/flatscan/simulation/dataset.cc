@@ -52,9 +52,6 @@ cv::Mat1b FinishImage(const Station& st, RigSide camera, cv::Mat1f& radiance, co
   const int n = st.scene.optics.blur_subpixels;
   const double sigma0 = st.scene.optics.blur_sigma_px;
   if (defects.f_number > 0) {
-    if (n != 1)
-      ThrowInputError("scene: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on "
-                      "whole pixels only (expected blur_subpixels 1)", n);
     const CameraSpec& lens = side == 0 ? st.scene.left_camera : st.scene.right_camera;
     const double focus_error = defects.focus_error_mm[side];
     BlurRegionsVarying(radiance, [&](const cv::Rect& rect) {
@@ -191,6 +188,10 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
 cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry& geometry,
                           const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers,
                           const ImageDefects& defects) {
+  // Refused before any rendering: FinishImage blurs a varying defocus on whole pixels only.
+  if (defects.f_number > 0 && st.scene.optics.blur_subpixels != 1)
+    ThrowInputError("scene: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on "
+                    "whole pixels only (expected blur_subpixels 1)", st.scene.optics.blur_subpixels);
   const Camera cam = RenderingCamera(st, camera);
   const LightingSpec& light = st.scene.lighting;
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(light.backlight_grey));

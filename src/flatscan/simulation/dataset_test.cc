@@ -1,6 +1,5 @@
 #include "flatscan/simulation/dataset.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -78,7 +77,6 @@ TEST(Dataset, TheBlurOnSubpixelsKeepsAStraightEdgeStraight) {
   std::printf("straight sides: RMS %.4f px sampled blur, %.4f px on 3 x 3 sub-pixels\n", rms[0], rms[1]);
   EXPECT_GT(rms[0], 0.012);  // measured 0.0182
   EXPECT_LT(rms[1], 0.004);  // 0.0018
-
 }
 
 TEST(Dataset, TheBlurOnSubpixelsRefusesTheVaryingDefocusBlur) {
