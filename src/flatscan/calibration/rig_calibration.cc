@@ -316,6 +316,17 @@ struct PairDetection {
   std::string error;  // an InputError message (unreadable image, size mismatch)
 };
 
+// OpenCV's flags for the coefficients `model` fits (without CALIB_USE_INTRINSIC_GUESS
+// the single-camera fits start k3 at 0, so CALIB_FIX_K3 holds it there).
+int CalibrationFlags(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kRational: return cv::CALIB_RATIONAL_MODEL;
+    case DistortionModel::kTwoRadial: return cv::CALIB_FIX_K3;
+    case DistortionModel::kStandard: break;
+  }
+  return 0;
+}
+
 }  // namespace
 
 bool RefineChessboardCorners(const cv::Mat& gray, const ChessboardSpec& board, std::vector<cv::Point2f>& corners,
@@ -589,7 +600,7 @@ RigCalibrationReport CalibrateRigFromCorners(const std::vector<BoardViewPair>& v
     right_points.push_back(v.right);
   }
 
-  const int model_flags = options.model == DistortionModel::kRational ? cv::CALIB_RATIONAL_MODEL : 0;
+  const int model_flags = CalibrationFlags(options.model);
   // Tighter than OpenCV's defaults (30, 1e-6 for the pair); tighter still changes nothing
   // measurable (1e-3 px in cx) but costs 3x the time.
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-10);

@@ -7,9 +7,11 @@
 
 namespace flatscan {
 
-CalibratedStation CalibrateSimulatedStation(const SceneConfig& scene, const std::filesystem::path& dataset_dir) {
+CalibratedStation CalibrateSimulatedStation(const SceneConfig& scene, const std::filesystem::path& dataset_dir,
+                                            DistortionModel model) {
   CalibratedStation out{BuildStation(scene), {}, {}};
   RigCalibrationOptions rig_options;
+  rig_options.model = model;
   rig_options.board = {scene.board.inner_corners[0], scene.board.inner_corners[1], scene.board.square_mm};
   out.rig_report = CalibrateRig(PairImagesByName({(dataset_dir / "calib/left_*.png").string()},
                                                  {(dataset_dir / "calib/right_*.png").string()}),
@@ -26,7 +28,8 @@ CalibratedStation CalibrateSimulatedStation(const SceneConfig& scene, const std:
 }
 
 CalibratedStation SimulateAndCalibrateStation(const SceneConfig& scene, uint64_t seed, const std::filesystem::path& dir,
-                                              const std::function<void(const std::string&)>& progress) {
+                                              const std::function<void(const std::string&)>& progress,
+                                              DistortionModel model) {
   SimulateOptions options;
   options.scene = scene;
   options.scene.dataset.parts = 0;
@@ -34,7 +37,7 @@ CalibratedStation SimulateAndCalibrateStation(const SceneConfig& scene, uint64_t
   options.output_dir = dir;
   SimulateDataset(options, progress);
   if (progress) progress("calibrating the rig and the support plane");
-  return CalibrateSimulatedStation(scene, dir);
+  return CalibrateSimulatedStation(scene, dir, model);
 }
 
 CalibratedStation TrueCalibratedStation(const Station& truth) {

@@ -26,13 +26,16 @@ CalibratedStation TrueCalibratedStation(const Station& truth);
 
 // Calibrates from a dataset folder written by SimulateDataset (calib/left_*.png,
 // calib/right_*.png, markers/left.png, markers/right.png) whose scene is `scene`, and
-// writes rig_calibrated.yml and plane_calibrated.yml into it. Throws InputError if
-// the images are missing or the calibration fails.
-CalibratedStation CalibrateSimulatedStation(const SceneConfig& scene, const std::filesystem::path& dataset_dir);
+// writes rig_calibrated.yml and plane_calibrated.yml into it, fitting the distortion
+// coefficients of `model` (calibrate-rig --model). Throws InputError if the images are
+// missing or the calibration fails.
+CalibratedStation CalibrateSimulatedStation(const SceneConfig& scene, const std::filesystem::path& dataset_dir,
+                                            DistortionModel model = DistortionModel::kStandard);
 
 // Renders only the calibration images of `scene` (board.poses chessboard pairs and the
 // marker pair) into `dir`, then calibrates as above. `progress` gets one line per step.
 CalibratedStation SimulateAndCalibrateStation(const SceneConfig& scene, uint64_t seed, const std::filesystem::path& dir,
-                                              const std::function<void(const std::string&)>& progress = {});
+                                              const std::function<void(const std::string&)>& progress = {},
+                                              DistortionModel model = DistortionModel::kStandard);
 
 }  // namespace flatscan

@@ -54,7 +54,9 @@ class CalibrateRigCommand : public Command {
     AddOutputOption(sub_, &output_, "rig file to write (OpenCV FileStorage YAML)")->required();
     sub_->add_option("--json", json_, "also write a JSON report (errors per pair, rejected pairs and why)");
     sub_->add_option("--model", model_,
-                     "distortion model: standard (k1 k2 p1 p2 k3) or rational (adds k4 k5 k6, for wide-angle lenses)")
+                     "distortion model: standard (k1 k2 p1 p2 k3), rational (adds k4 k5 k6, for wide-angle lenses) or "
+                     "two-radial (k1 k2 p1 p2, k3 held at 0: narrow-field lenses, field half-angle up to about 20 "
+                     "degrees, where k3 is not determined by the boards)")
         ->default_val("standard");
   }
 

@@ -96,6 +96,10 @@ class EvaluateCommand : public Command {
               ->check(IntegerIn(1, 100))
               ->default_val(calibrations_),
           "calibrations");
+    sub_->add_option("--distortion-model", distortion_model_,
+                     "the distortion coefficients each station's rig calibration fits (calibrate-rig --model): standard "
+                     "(k1 k2 p1 p2 k3), rational or two-radial (k3 held at 0: narrow-field lenses)")
+        ->default_val(distortion_model_);
     Fills(sub_->add_option("--robustness", robustness_options_.parts,
                            "robustness to the defects of real images: this many parts, rendered ideal and with each "
                            "image effect in turn (backlight non-uniformity, exposure drift, dust, halo, shot noise, "
@@ -134,6 +138,12 @@ class EvaluateCommand : public Command {
     if (!repeat_ && batch_options_.parts <= 0 && !rotation && robustness_options_.parts <= 0 && gauge_options_.parts <= 0)
       ThrowInputError("evaluate: expected --repeat, --batch N, --rotation-step DEG, --robustness N and/or --gauge N "
                       "(for example: flatscan evaluate --repeat --batch 1000)");
+    DistortionModel distortion_model = DistortionModel::kStandard;
+    try {
+      distortion_model = ParseDistortionModel(distortion_model_);
+    } catch (const InputError& e) {
+      throw InputError("--distortion-model", e.what());
+    }
     if (calibrations_ > 1 && batch_options_.parts <= 0)
       ThrowInputError("evaluate: --calibrations {} validates the batch study's uncertainties: give --batch N too",
                       calibrations_);
@@ -158,7 +168,8 @@ class EvaluateCommand : public Command {
     // A station calibrated from its own simulated images (or, diagnostic, the truth).
     auto make_station = [&](uint64_t seed, const std::filesystem::path& dir) {
       CalibratedStation s =
-          SimulateAndCalibrateStation(scene, seed, dir, [](const std::string& line) { spdlog::info("rendering {}", line); });
+          SimulateAndCalibrateStation(scene, seed, dir, [](const std::string& line) { spdlog::info("rendering {}", line); },
+                                      distortion_model);
       if (true_calibration_) {
         s.rig_report.rig = s.truth.rig;
         s.plane_report.plane = s.truth.plane;
@@ -283,6 +294,7 @@ class EvaluateCommand : public Command {
   int calib_poses_ = kDefaultCalibrationPoses;
   int save_worst_ = 0;
   int calibrations_ = 1;
+  std::string distortion_model_ = "standard";
 
   RepeatStudyOptions repeat_options_;
   RotationStudyOptions rotation_options_ = [] {

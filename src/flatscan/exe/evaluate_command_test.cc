@@ -136,6 +136,12 @@ TEST(EvaluateCommand, BadInputExitsTwoWithoutOutput) {
   EXPECT_NE(r.err.find("evaluate: --calibrations 3 validates the batch study's uncertainties: give --batch N too"),
             std::string::npos)
       << r.err;
+  r = RunFlatscan("evaluate --batch 3 --distortion-model fisheye -o " + out.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--distortion-model: unknown distortion model 'fisheye' (expected standard: k1 k2 p1 p2 k3, "
+                       "rational: k1..k6 p1 p2, or two-radial: k1 k2 p1 p2)"),
+            std::string::npos)
+      << r.err;
   EXPECT_FALSE(std::filesystem::exists(out));
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }

@@ -10,14 +10,22 @@
 namespace flatscan {
 
 std::string DistortionModelName(DistortionModel model) {
-  return model == DistortionModel::kRational ? "rational" : "standard";
+  switch (model) {
+    case DistortionModel::kRational: return "rational";
+    case DistortionModel::kTwoRadial: return "two-radial";
+    case DistortionModel::kStandard: break;
+  }
+  return "standard";
 }
 
 DistortionModel ParseDistortionModel(const std::string& name) {
   if (name == "standard") return DistortionModel::kStandard;
   if (name == "rational") return DistortionModel::kRational;
-  ThrowInputError("unknown distortion model '{}' (expected standard: k1 k2 p1 p2 k3, or rational: k1..k6 p1 p2)",
-                  name);
+  if (name == "two-radial") return DistortionModel::kTwoRadial;
+  ThrowInputError(
+      "unknown distortion model '{}' (expected standard: k1 k2 p1 p2 k3, rational: k1..k6 p1 p2, or two-radial: k1 k2 "
+      "p1 p2)",
+      name);
 }
 
 cv::Mat Camera::CameraMatrix() const {

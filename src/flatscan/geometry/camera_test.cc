@@ -139,10 +139,11 @@ TEST(Camera, OpenCvMatricesRoundTrip) {
 }
 
 TEST(Camera, DistortionModelNames) {
-  for (DistortionModel m : {DistortionModel::kStandard, DistortionModel::kRational})
+  for (DistortionModel m : {DistortionModel::kStandard, DistortionModel::kRational, DistortionModel::kTwoRadial})
     EXPECT_EQ(ParseDistortionModel(DistortionModelName(m)), m);
   EXPECT_EQ(testing::InputErrorOf([] { ParseDistortionModel("fisheye"); }),
-            "unknown distortion model 'fisheye' (expected standard: k1 k2 p1 p2 k3, or rational: k1..k6 p1 p2)");
+            "unknown distortion model 'fisheye' (expected standard: k1 k2 p1 p2 k3, rational: k1..k6 p1 p2, or "
+            "two-radial: k1 k2 p1 p2)");
 }
 
 }  // namespace
