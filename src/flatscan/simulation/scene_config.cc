@@ -305,6 +305,12 @@ void CheckConsistency(const SceneConfig& s, const std::string& source) {
   if (n.hi > 0 && n.lo < 0.7)  // faster than f/0.7 no lens is; 0 alone means no defocus
     ThrowInputError("{}: image_effects.f_number must be 0 (no defocus) or apertures from f/0.7 (got [{}, {}])", source,
                     n.lo, n.hi);
+  // The varying defocus is blurred on whole pixels only (dataset.cc refuses it at render
+  // time too, for effects set by a study rather than read from a file).
+  if (n.hi > 0 && s.optics.blur_subpixels != 1)
+    ThrowInputError("{}: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on whole "
+                    "pixels only (expected blur_subpixels 1)",
+                    source, s.optics.blur_subpixels);
 }
 
 // cv::FileNode tree -> json, so YAML and JSON scene files share one validator.

@@ -95,6 +95,10 @@ TEST(SceneConfig, BadValuesNameTheFileAndField) {
             j + ": image_effects.f_number must be 0 (no defocus) or apertures from f/0.7 (got [0.5, 4])");
   WriteText(json, R"({"image_effects": {"f_number": [2.8, 8], "focus_error_mm": [-3, 3]}})");
   EXPECT_EQ(LoadSceneFile(json).image_effects.focus_error_mm.hi, 3.0);
+  WriteText(json, R"({"image_effects": {"f_number": [2.8, 8]}, "optics": {"blur_subpixels": 3}})");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }),
+            j + ": optics.blur_subpixels 3 with image_effects.f_number: the varying blur is rendered on whole pixels "
+                "only (expected blur_subpixels 1)");
   WriteText(json, R"({"preset": "nope"})");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), "unknown preset 'nope' (expected one of: paper, compact)");
   WriteText(json, "{not json");
