@@ -101,9 +101,10 @@ nlohmann::json StructuredLightJson(const StructuredLightStudy& sl) {
 std::string CalibrationMarkdown(const CalibratedStation& s) {
   const RigCalibrationReport& r = s.rig_report;
   return fmt::format(
-      "Station '{}' calibrated from simulated images: rig from {} chessboard pairs (RMS {:.3f} px, epipolar {:.3f} px, "
-      "baseline {:.3f} mm, true {:.3f} mm); support plane from {} markers (residual RMS {:.4f} mm).\n",
-      s.truth.scene.name, r.views.size(), r.rms_px, r.epipolar_px, r.rig.BaselineMm(), s.truth.rig.BaselineMm(),
+      "Station '{}' calibrated from simulated images: rig from {} chessboard pairs ({} distortion model; RMS {:.3f} px, "
+      "epipolar {:.3f} px, baseline {:.3f} mm, true {:.3f} mm); support plane from {} markers (residual RMS {:.4f} "
+      "mm).\n",
+      s.truth.scene.name, r.views.size(), DistortionModelName(r.model), r.rms_px, r.epipolar_px, r.rig.BaselineMm(), s.truth.rig.BaselineMm(),
       s.plane_report.matched.size(), s.plane_report.tls.RmsMm());
 }
 

@@ -21,7 +21,7 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   const auto out = dir.path() / "eval";
   const auto r = RunFlatscan(
       "evaluate --repeat --shots 4 --structured-light-shots 1 --batch 6 --rotation-step 45 --rotation-parts 2 --calib-poses 8 "
-      "--seed 3 --save-worst 1 -o " +
+      "--seed 3 --save-worst 1 --distortion-model two-radial -o " +
       out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("| boundary stereo (paper) | 0.337 | 3.2e-03 | 4.33% | 627 |"), std::string::npos) << r.out;
@@ -64,6 +64,7 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   EXPECT_TRUE(std::filesystem::exists(out / "station/rig_calibrated.yml"));
   EXPECT_TRUE(std::filesystem::exists(out / "station/plane_calibrated.yml"));
   EXPECT_GE(j["calibration"]["rig"]["pairs_used"].get<int>(), 6);
+  EXPECT_EQ(j["calibration"]["rig"]["distortion_model"], "two-radial");
   for (const char* chart : {"repeat_shots.png", "repeat_error_histogram.png", "batch_measured_vs_true.png",
                             "batch_error_histogram.png", "rotation_coverage.png"}) {
     const cv::Mat img = cv::imread((out / chart).string());
@@ -101,6 +102,7 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
 
   const std::string report = testing::ReadFileBytes(out / "report.md");
   EXPECT_NE(report.find("### Batch classification (paper Table 2): 6 parts"), std::string::npos);
+  EXPECT_NE(report.find("rig from 8 chessboard pairs (two-radial distortion model; RMS "), std::string::npos) << report;
   // The same report as one HTML file: its tables as tables, the five charts inside (PNG
   // data: URIs, the page's only sources), nothing fetched.
   const std::string html = testing::ReadFileBytes(out / "report.html");
