@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -16,8 +15,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "flatscan/geometry/plane_fit.h"
 #include "flatscan/io/rig_file.h"
 #include "flatscan/simulation/dataset.h"
+#include "flatscan/support_plane/plane_calibration.h"
 #include "flatscan/util/error.h"
 #include "flatscan/util/test_util.h"
 
@@ -296,45 +297,30 @@ TEST(RigCalibration, RecoversTheSimulatedCompactRig) {
   CompareCornerAccuracy(sim, 2, 0.015);
 }
 
-// The height error a calibration puts on a part: the support plane is fitted (least
-// squares) to its markers' centres (31 mm out from the centre of the 12 mm rig's field, as
-// `calibrate-plane` finds them) and the part's points are a 24 x 18 mm grid around the
-// plane's centre, 2 mm apart, on the plane and 0.3 mm above it; each point is projected
-// with the true rig and triangulated with `rig` (midpoint of the two rays). Returns the
-// largest error of the grid's heights above the fitted plane, mm.
-Eigen::Vector3d MidpointTriangulation(const StereoRig& rig, const Eigen::Vector2d& left, const Eigen::Vector2d& right) {
-  // Rays in camera 1: from 0 along a, and from c along b; closest points s a and c + t b:
-  // [a.a -a.b; a.b -b.b] (s, t) = (a.c, b.c).
-  const Eigen::Vector3d a = rig.left.PixelToNormalized(left).homogeneous();
-  const Eigen::Matrix3d r_t = rig.cam2_from_cam1.rotation.transpose();
-  const Eigen::Vector3d c = -r_t * rig.cam2_from_cam1.translation;
-  const Eigen::Vector3d b = r_t * rig.right.PixelToNormalized(right).homogeneous();
-  Eigen::Matrix2d m;
-  m << a.dot(a), -a.dot(b), a.dot(b), -b.dot(b);
-  const Eigen::Vector2d st = m.lu().solve(Eigen::Vector2d(a.dot(c), b.dot(c)));
-  return 0.5 * (st(0) * a + c + st(1) * b);
-}
-
+// The height error a calibration puts on a part: the support plane is fitted (total
+// least squares) to its markers' centres (31 mm out from the centre of the 12 mm rig's
+// field, as `calibrate-plane` finds them) and the part's points are a 24 x 18 mm grid
+// around the plane's centre, 2 mm apart, on the plane and 0.3 mm above it; each point is
+// projected with the true rig and triangulated with `rig` as calibrate-plane does
+// (TriangulateNormalized). Returns the largest error of the grid's heights above the
+// fitted plane, mm.
 double RaisedGridHeightErrorMm(const StereoRig& rig, const Station& truth) {
   const SupportPlane& plane = truth.plane;
   auto seen = [&](const Eigen::Vector3d& x) {
-    return MidpointTriangulation(rig, truth.rig.left.Project(x), truth.rig.right.Project(truth.rig.cam2_from_cam1 * x));
+    return TriangulateNormalized(rig, rig.left.PixelToNormalized(truth.rig.left.Project(x)),
+                                 rig.right.PixelToNormalized(truth.rig.right.Project(truth.rig.cam2_from_cam1 * x)));
   };
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> markers;
   for (const Eigen::Vector3d& m : plane.markers) markers.push_back(seen(m));
-  for (const Eigen::Vector3d& p : markers) centroid += p / static_cast<double>(markers.size());
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : markers) scatter += (p - centroid) * (p - centroid).transpose();
-  Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
-  if (normal.dot(plane.normal) < 0) normal = -normal;
+  const PlaneFit fit = FitPlaneTotalLeastSquares(markers);
+  const Eigen::Vector3d normal = fit.normal.dot(plane.normal) < 0 ? Eigen::Vector3d(-fit.normal) : fit.normal;
   const Eigen::Vector3d e1 = plane.normal.unitOrthogonal(), e2 = plane.normal.cross(e1);
   double worst = 0;
   for (int i = -6; i <= 6; ++i)
     for (int j = -4; j <= 4; ++j)
       for (double h : {0.0, 0.3}) {
         const Eigen::Vector3d x = plane.point + 2.0 * i * e1 + 2.0 * j * e2 + h * plane.normal;
-        worst = std::max(worst, std::abs(normal.dot(seen(x) - centroid) - h));
+        worst = std::max(worst, std::abs(normal.dot(seen(x) - fit.centroid) - h));
       }
   return worst;
 }

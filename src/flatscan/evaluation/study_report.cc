@@ -104,8 +104,8 @@ std::string CalibrationMarkdown(const CalibratedStation& s) {
       "Station '{}' calibrated from simulated images: rig from {} chessboard pairs ({} distortion model; RMS {:.3f} px, "
       "epipolar {:.3f} px, baseline {:.3f} mm, true {:.3f} mm); support plane from {} markers (residual RMS {:.4f} "
       "mm).\n",
-      s.truth.scene.name, r.views.size(), DistortionModelName(r.model), r.rms_px, r.epipolar_px, r.rig.BaselineMm(), s.truth.rig.BaselineMm(),
-      s.plane_report.matched.size(), s.plane_report.tls.RmsMm());
+      s.truth.scene.name, r.views.size(), DistortionModelName(r.model), r.rms_px, r.epipolar_px, r.rig.BaselineMm(),
+      s.truth.rig.BaselineMm(), s.plane_report.matched.size(), s.plane_report.tls.RmsMm());
 }
 
 nlohmann::json CalibrationJson(const CalibratedStation& s) {
