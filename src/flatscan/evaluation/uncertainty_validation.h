@@ -25,6 +25,10 @@ struct UncertaintyRow {
   double covered_fraction = 0;     // |error| <= uncertainty_mm
   double median_uncertainty_mm = 0, median_abs_error_mm = 0;
   int maximum_unmeasured = 0;      // parts whose maximum may lie in an unmeasured stretch
+  // The calibration's share, per station: its parts' signed mean error (what one
+  // calibration shifts every part by, plus the parts' own scatter / sqrt(n)) beside the
+  // median of the calibration's standard uncertainty sqrt(u_rig^2 + u_plane^2).
+  double mean_error_mm = 0, median_calibration_mm = 0;
   double Ratio() const { return median_abs_error_mm > 0 ? median_uncertainty_mm / median_abs_error_mm : 0.0; }
 };
 

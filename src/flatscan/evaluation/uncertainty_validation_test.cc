@@ -22,9 +22,12 @@ PartMeasurement Part(double rotation_deg, double error_mm, double uncertainty_mm
 // Shares, medians and bands on a hand-made lot: two stations, rotations in every band
 // (91 degrees is 1 degree from the perpendicular), one part not measured.
 TEST(UncertaintyValidation, CountsCoveredPartsPerBandAndStation) {
-  const std::vector<std::vector<PartMeasurement>> stations = {
+  std::vector<std::vector<PartMeasurement>> stations = {
       {Part(1, 0.001, 0.002), Part(91, 0.004, 0.002), Part(3, -0.001, 0.003)},
       {Part(10, 0.002, 0.004), Part(30, -0.003, 0.004), Part(44, 0.0, 0.001), Part(20, 0.5, 0.001, false)}};
+  // Station 7's calibration terms (u_rig, u_plane): (0.3, 0.4), (0.6, 0.8), (0, 0) um.
+  stations[0][0].uncertainty.rig_mm = 0.0003, stations[0][0].uncertainty.plane_mm = 0.0004;
+  stations[0][1].uncertainty.rig_mm = 0.0006, stations[0][1].uncertainty.plane_mm = 0.0008;
   const UncertaintyValidation v = ValidateUncertainty(stations, {7, 8});
   EXPECT_EQ(v.all.parts, 6);
   EXPECT_DOUBLE_EQ(v.all.covered_fraction, 5.0 / 6);  // the 4 um error with a 2 um U is not
@@ -41,6 +44,11 @@ TEST(UncertaintyValidation, CountsCoveredPartsPerBandAndStation) {
   EXPECT_EQ(v.by_station[1].label, "station seed 8");
   EXPECT_EQ(v.by_station[1].parts, 3);
   EXPECT_DOUBLE_EQ(v.by_station[1].covered_fraction, 1.0);
+  EXPECT_NEAR(v.by_station[0].mean_error_mm, 0.004 / 3, 1e-12);  // (1 + 4 - 1) um / 3
+  EXPECT_NEAR(v.by_station[1].mean_error_mm, -0.001 / 3, 1e-12);
+  EXPECT_NEAR(v.by_station[0].median_calibration_mm, 0.0005, 1e-12);  // of 0.5, 1.0 and 0 um
+  EXPECT_NE(UncertaintyMarkdown(v).find("| station seed 7 | 3 | 66.7% | 2.00 | 1.00 | 2.00 | 0 | +1.33 | 0.50 |"),
+            std::string::npos);
   EXPECT_EQ(UncertaintyJson(v)["by_station"][0]["parts"], 3);
 }
 

@@ -58,12 +58,19 @@ double HeightPerDisparityPx(const StereoRig& rig, const SupportPlane& plane, con
   return std::isfinite(g) ? g : 0.0;
 }
 
-double PlaneHeightSd(const SupportPlane& plane, const Eigen::Vector3d& p) {
+double PlaneHeightSd(const StereoRig& rig, const SupportPlane& plane, const Eigen::Vector3d& p,
+                     const UncertaintyOptions& options) {
   const int n = static_cast<int>(plane.markers.size());
-  if (n <= 3 || plane.residuals_mm.size() != plane.markers.size()) return 0.0;
-  double sum_squares = 0;
+  if (n < 3 || plane.residuals_mm.size() != plane.markers.size()) return 0.0;
+  double sum_squares = 0, prior_variance = 0;
   for (const double r : plane.residuals_mm) sum_squares += r * r;
-  const double variance = sum_squares / (n - 3);
+  for (const Eigen::Vector3d& m : plane.markers) {
+    const double g = HeightPerDisparityPx(rig, plane, rig.left.Project(m), rig.right.Project(rig.cam2_from_cam1 * m));
+    prior_variance += std::pow(options.marker_disparity_px * g, 2) / n;
+  }
+  const double prior_dof = options.marker_prior_dof;
+  if (n - 3 + prior_dof <= 0) return 0.0;
+  const double variance = (prior_dof * prior_variance + sum_squares) / (prior_dof + n - 3);
   // In-plane offsets from the markers' centroid.
   const auto [e1, e2] = PlaneAxes(plane);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -99,7 +106,7 @@ PartUncertainty EstimatePartUncertainty(const StereoRig& rig, const SupportPlane
     out.method_mm =
         options.method_disparity_px * HeightPerDisparityPx(rig, plane, nearest->left_raw, nearest->right_raw);
   }
-  out.plane_mm = PlaneHeightSd(plane, top->position);
+  out.plane_mm = PlaneHeightSd(rig, plane, top->position, options);
   const double calibration_variance =
       out.rig_mm * out.rig_mm + out.plane_mm * out.plane_mm + out.method_mm * out.method_mm;
   out.expanded_mm = -std::numeric_limits<double>::infinity();

@@ -38,17 +38,48 @@ struct PlaneAndRig {
   }
 };
 
-// Least-squares prediction variance of the plane: s^2 = sum r^2 / (N - 3) = 4 r^2;
-// at the centroid s^2 / N, at (30, 0) s^2 (1/4 + 30^2 / (4 30^2)).
+// Least-squares prediction variance of the plane from its residuals alone (no prior):
+// s^2 = sum r^2 / (N - 3) = 4 r^2; at the centroid s^2 / N, at (30, 0) s^2 (1/4 + 30^2 /
+// (4 30^2)).
 TEST(PartUncertainty, PlaneHeightSdIsTheFittedPlanesPredictionSd) {
   const PlaneAndRig s;
+  const StereoRig& rig = s.station.rig;
   const double r = PlaneAndRig::kResidualMm;
-  EXPECT_NEAR(PlaneHeightSd(s.plane, s.At(0, 0, 0)), r, 1e-12);
-  EXPECT_NEAR(PlaneHeightSd(s.plane, s.At(30, 0, 0.1)), 2 * r * std::sqrt(0.5), 1e-12);
+  UncertaintyOptions residuals_only;
+  residuals_only.marker_prior_dof = 0;
+  EXPECT_NEAR(PlaneHeightSd(rig, s.plane, s.At(0, 0, 0), residuals_only), r, 1e-12);
+  EXPECT_NEAR(PlaneHeightSd(rig, s.plane, s.At(30, 0, 0.1), residuals_only), 2 * r * std::sqrt(0.5), 1e-12);
   SupportPlane three = s.plane;  // three markers define the plane: no estimate of their noise
   three.markers.pop_back();
   three.residuals_mm.pop_back();
-  EXPECT_EQ(PlaneHeightSd(three, s.At(0, 0, 0)), 0.0);
+  EXPECT_EQ(PlaneHeightSd(rig, three, s.At(0, 0, 0), residuals_only), 0.0);
+}
+
+// With the ring centres' noise e_m as a prior of nu0 degrees of freedom: one marker's
+// height variance s^2 = (nu0 s0^2 + sum r^2) / (nu0 + N - 3), s0 = e_m g (g about 60
+// um/px on the paper rig, so s0 about 0.27 um); three markers now get s0 alone.
+TEST(PartUncertainty, PlaneHeightSdPoolsTheResidualsWithTheRingCentresNoise) {
+  const PlaneAndRig s;
+  const StereoRig& rig = s.station.rig;
+  const UncertaintyOptions options;
+  double s0_squared = 0;
+  for (const Eigen::Vector3d& m : s.plane.markers) {
+    const double g = HeightPerDisparityPx(rig, s.plane, rig.left.Project(m), rig.right.Project(rig.cam2_from_cam1 * m));
+    s0_squared += std::pow(options.marker_disparity_px * g, 2) / 4;
+  }
+  EXPECT_GT(std::sqrt(s0_squared), 0.0002);
+  EXPECT_LT(std::sqrt(s0_squared), 0.00035);
+  const double r = PlaneAndRig::kResidualMm, nu0 = options.marker_prior_dof;
+  const double pooled = (nu0 * s0_squared + 4 * r * r) / (nu0 + 1);
+  EXPECT_NEAR(PlaneHeightSd(rig, s.plane, s.At(0, 0, 0)), std::sqrt(pooled / 4), 1e-9);
+
+  SupportPlane three = s.plane;
+  three.markers.pop_back();
+  three.residuals_mm.assign(3, 0.0);
+  const Eigen::Vector3d centroid = (three.markers[0] + three.markers[1] + three.markers[2]) / 3;
+  const double u_three = PlaneHeightSd(rig, three, centroid);
+  EXPECT_GT(u_three, 0.8 * std::sqrt(s0_squared / 3));
+  EXPECT_LT(u_three, 1.2 * std::sqrt(s0_squared / 3));
 }
 
 // Scaling the baseline by 1 + e scales every triangulated point, markers included,
@@ -87,7 +118,7 @@ TEST(PartUncertainty, TheHighestBandSetsUAndNamesAnUnmeasuredMaximum) {
   const PlaneAndRig s;
   const Eigen::Vector3d top = s.At(0, 0, 0.1), low = s.At(5, 0, 0.05);
   std::vector<RimHeightPoint> points = {{top, 0.1, 0.001, false}, {low, 0.05, 0.001, false}};
-  const double u_plane = PlaneHeightSd(s.plane, top);
+  const double u_plane = PlaneHeightSd(s.station.rig, s.plane, top);
   PartUncertainty u = EstimatePartUncertainty(s.station.rig, s.plane, points, {});
   EXPECT_NEAR(u.expanded_mm, 2 * std::sqrt(0.001 * 0.001 + u_plane * u_plane), 1e-12);
   EXPECT_FALSE(u.maximum_unmeasured);
