@@ -189,9 +189,7 @@ cv::Mat1b RenderPartImage(const Station& st, RigSide camera, const PartGeometry&
                           const Rigid3d& support_from_part, uint64_t noise_seed, bool with_markers,
                           const ImageDefects& defects) {
   // Refused before any rendering: FinishImage blurs a varying defocus on whole pixels only.
-  if (defects.f_number > 0 && st.scene.optics.blur_subpixels != 1)
-    ThrowInputError("scene: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on "
-                    "whole pixels only (expected blur_subpixels 1)", st.scene.optics.blur_subpixels);
+  CheckDefocusOnWholePixels("scene", st.scene.optics.blur_subpixels, defects.f_number > 0);
   const Camera cam = RenderingCamera(st, camera);
   const LightingSpec& light = st.scene.lighting;
   cv::Mat1f radiance(cam.height, cam.width, static_cast<float>(light.backlight_grey));

@@ -305,12 +305,7 @@ void CheckConsistency(const SceneConfig& s, const std::string& source) {
   if (n.hi > 0 && n.lo < 0.7)  // faster than f/0.7 no lens is; 0 alone means no defocus
     ThrowInputError("{}: image_effects.f_number must be 0 (no defocus) or apertures from f/0.7 (got [{}, {}])", source,
                     n.lo, n.hi);
-  // The varying defocus is blurred on whole pixels only (dataset.cc refuses it at render
-  // time too, for effects set by a study rather than read from a file).
-  if (n.hi > 0 && s.optics.blur_subpixels != 1)
-    ThrowInputError("{}: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on whole "
-                    "pixels only (expected blur_subpixels 1)",
-                    source, s.optics.blur_subpixels);
+  CheckDefocusOnWholePixels(source, s.optics.blur_subpixels, n.hi > 0);
 }
 
 // cv::FileNode tree -> json, so YAML and JSON scene files share one validator.
@@ -372,6 +367,13 @@ SceneConfig ScenePreset(const std::string& name) {
     return s;
   }
   ThrowInputError("unknown preset '{}' (expected one of: {})", name, fmt::join(ScenePresetNames(), ", "));
+}
+
+void CheckDefocusOnWholePixels(const std::string& source, int blur_subpixels, bool defocus) {
+  if (defocus && blur_subpixels != 1)
+    ThrowInputError("{}: optics.blur_subpixels {} with image_effects.f_number: the varying blur is rendered on whole "
+                    "pixels only (expected blur_subpixels 1)",
+                    source, blur_subpixels);
 }
 
 SceneConfig ApplySceneDocument(SceneConfig base, const json& doc, const std::string& source) {

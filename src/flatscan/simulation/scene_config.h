@@ -194,6 +194,12 @@ SceneConfig ApplySceneDocument(SceneConfig base, const nlohmann::json& doc,
 // document may name a base preset with `preset: NAME` (default paper).
 SceneConfig LoadSceneFile(const std::filesystem::path& path);
 
+// A varying defocus (image_effects.f_number) is blurred on whole pixels only: throws
+// InputError "<source>: optics.blur_subpixels 3 with image_effects.f_number: ..." when a
+// scene asks for both. Called when a scene is read and again at render time (for the
+// effects a study sets rather than a file).
+void CheckDefocusOnWholePixels(const std::string& source, int blur_subpixels, bool defocus);
+
 // The fully resolved scene, for writing next to a dataset (scene.json).
 nlohmann::json SceneToJson(const SceneConfig& scene);
 
