@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "flatscan/evaluation/calibration_share.h"
 #include "flatscan/evaluation/flatness_study.h"
 #include "flatscan/evaluation/gauge_twin.h"
 #include "flatscan/evaluation/study_report.h"
@@ -232,8 +233,11 @@ class EvaluateCommand : public Command {
       add_chart("batch_error_histogram.png",
                  ErrorHistogramChart(study.parts, study.uncertainty_mm, "Batch: flatness error of each part"));
       // Each part's uncertainty against its error, over --calibrations stations.
+      // With calibrated stations, each calibration's own error where the parts lie, too.
       std::vector<std::vector<PartMeasurement>> stations = {study.parts};
       std::vector<uint64_t> seeds = {seed_};
+      std::vector<CalibrationShare> shares;
+      if (!true_calibration_) shares.push_back(MeasureCalibrationShare(station, seed_));
       for (int k = 1; k < calibrations_; ++k) {
         seeds.push_back(seed_ + k);
         spdlog::info("uncertainty: station {} of {} (seed {})", k + 1, calibrations_, seeds.back());
@@ -241,9 +245,12 @@ class EvaluateCommand : public Command {
         options.seed = seeds.back();
         const CalibratedStation other = make_station(seeds.back(), root / fmt::format("station_{}", seeds.back()));
         stations.push_back(RunBatchStudy(other, options, ProgressLogger("uncertainty: part")).parts);
+        if (!true_calibration_) shares.push_back(MeasureCalibrationShare(other, seeds.back()));
       }
       const UncertaintyValidation validation = ValidateUncertainty(stations, seeds);
       add_section("uncertainty", UncertaintyMarkdown(validation), UncertaintyJson(validation));
+      if (!shares.empty())
+        add_section("calibration_share", CalibrationShareMarkdown(shares), CalibrationShareJson(shares));
     }
     if (rotation) {
       const RotationStudy study = RunRotationStudy(station, rotation_options_, ProgressLogger("rotation: part"));

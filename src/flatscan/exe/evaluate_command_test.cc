@@ -60,6 +60,15 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
   EXPECT_GE(rotation[1]["coverage_min"].get<double>(), 0.9);
   EXPECT_LE(rotation[1]["errors"]["max_abs_mm"].get<double>(), 0.003);
   EXPECT_GT(batch["uncertainty_mm"].get<double>(), 0.0);
+  // The station's calibration against the truth where the parts lie: sub-micron on the
+  // paper rig (docs/evaluation.md: 0.1-0.4 um), with its own estimates beside.
+  const auto& share = j["calibration_share"]["stations"];
+  ASSERT_EQ(share.size(), 1u);
+  EXPECT_EQ(share[0]["seed"], 3);
+  for (const char* key : {"plane_error_mm", "rig_error_mm", "plane_sd_mm", "rig_sd_mm"}) {
+    EXPECT_GT(share[0][key].get<double>(), 0.0) << key;
+    EXPECT_LT(share[0][key].get<double>(), 0.002) << key;
+  }
   // Calibrated, not true: the calibrated rig and plane files are in the output.
   EXPECT_TRUE(std::filesystem::exists(out / "station/rig_calibrated.yml"));
   EXPECT_TRUE(std::filesystem::exists(out / "station/plane_calibrated.yml"));
@@ -102,6 +111,7 @@ TEST(EvaluateCommand, SmallRepeatAndBatchOnThePaperPreset) {
 
   const std::string report = testing::ReadFileBytes(out / "report.md");
   EXPECT_NE(report.find("### Batch classification (paper Table 2): 6 parts"), std::string::npos);
+  EXPECT_NE(report.find("### The calibration's share, measured"), std::string::npos);
   EXPECT_NE(report.find("rig from 8 chessboard pairs (two-radial distortion model; RMS "), std::string::npos) << report;
   // The same report as one HTML file: its tables as tables, the five charts inside (PNG
   // data: URIs, the page's only sources), nothing fetched.
