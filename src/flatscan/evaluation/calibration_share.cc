@@ -14,10 +14,6 @@ Eigen::Vector3d Triangulate(const StereoRig& rig, const Eigen::Vector2d& left_ra
   return TriangulateNormalized(rig, rig.left.PixelToNormalized(left_raw), rig.right.PixelToNormalized(right_raw));
 }
 
-std::pair<Eigen::Vector2d, Eigen::Vector2d> TruePixels(const StereoRig& truth, const Eigen::Vector3d& p) {
-  return {truth.left.Project(p), truth.right.Project(truth.cam2_from_cam1 * p)};
-}
-
 // The grid above (camera-1 frame, true heights 0.1 mm).
 std::vector<Eigen::Vector3d> PartPlaceGrid(const Station& truth) {
   const double half = truth.scene.part.width_mm.hi / 2;
@@ -43,13 +39,6 @@ CalibrationShare MeasureCalibrationShare(const CalibratedStation& station, uint6
     seen_markers.push_back(Triangulate(truth, m.left_centre_px, m.right_centre_px));
   if (seen_markers.size() < 3) seen_markers = station.plane().markers;
   const SupportPlaneFit plane_from_markers = FitSupportPlaneTls(seen_markers);
-  // The plane the calibrated rig gives from the true markers' pixels.
-  std::vector<Eigen::Vector3d> rig_markers;
-  for (const Eigen::Vector3d& m : station.truth.plane.markers) {
-    const auto [l, r] = TruePixels(truth, m);
-    rig_markers.push_back(Triangulate(rig, l, r));
-  }
-  const SupportPlaneFit rig_plane = FitSupportPlaneTls(rig_markers);
 
   CalibrationShare out;
   out.seed = seed;
@@ -57,8 +46,8 @@ CalibrationShare MeasureCalibrationShare(const CalibratedStation& station, uint6
   for (const Eigen::Vector3d& p : grid) {
     const double h_true = station.truth.plane.Height(p);
     const double plane_error = plane_from_markers.normal.dot(p - plane_from_markers.point) - h_true;
-    const auto [l, r] = TruePixels(truth, p);
-    const double rig_error = rig_plane.normal.dot(Triangulate(rig, l, r) - rig_plane.point) - h_true;
+    const Eigen::Vector2d l = truth.left.Project(p), r = truth.right.Project(truth.cam2_from_cam1 * p);
+    const double rig_error = HeightAboveOwnPlane(rig, truth, station.truth.plane.markers, l, r) - h_true;
     const double u_plane = PlaneHeightSd(rig, station.plane(), p, options);
     const double u_rig = RigHeightSd(rig, station.plane(), l, r);
     out.plane_error_mm += plane_error * plane_error, out.plane_sd_mm += u_plane * u_plane;

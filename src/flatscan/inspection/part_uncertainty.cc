@@ -14,27 +14,28 @@
 namespace flatscan {
 namespace {
 
-// The height above its own plane of the point seen at (left_raw, right_raw), for a rig
-// given by its cameras and pose: the plane markers (camera-1 frame of the calibrated
-// rig) are projected with the calibrated rig's cameras, triangulated again with these,
-// and fitted (TLS), as CalibratePlane does.
-double HeightUnder(const StereoRig& calibrated, const RigReplicate& replicate, const SupportPlane& plane,
-                   const Eigen::Vector2d& left_raw, const Eigen::Vector2d& right_raw) {
+// A replicate as a rig (its cameras and pose).
+StereoRig RigOf(const RigReplicate& replicate) {
   StereoRig rig;
   rig.left = replicate.left;
   rig.right = replicate.right;
   rig.cam2_from_cam1 = replicate.cam2_from_cam1;
-  auto triangulate = [&](const Eigen::Vector2d& l, const Eigen::Vector2d& r) {
-    return TriangulateNormalized(rig, rig.left.PixelToNormalized(l), rig.right.PixelToNormalized(r));
-  };
-  std::vector<Eigen::Vector3d> markers;
-  for (const Eigen::Vector3d& m : plane.markers)
-    markers.push_back(triangulate(calibrated.left.Project(m), calibrated.right.Project(calibrated.cam2_from_cam1 * m)));
-  const SupportPlaneFit fit = FitSupportPlaneTls(markers);
-  return fit.normal.dot(triangulate(left_raw, right_raw) - fit.point);
+  return rig;
 }
 
 }  // namespace
+
+double HeightAboveOwnPlane(const StereoRig& measuring, const StereoRig& seeing, const std::vector<Eigen::Vector3d>& markers,
+                           const Eigen::Vector2d& left_raw, const Eigen::Vector2d& right_raw) {
+  auto triangulate = [&](const Eigen::Vector2d& l, const Eigen::Vector2d& r) {
+    return TriangulateNormalized(measuring, measuring.left.PixelToNormalized(l), measuring.right.PixelToNormalized(r));
+  };
+  std::vector<Eigen::Vector3d> seen;
+  for (const Eigen::Vector3d& m : markers)
+    seen.push_back(triangulate(seeing.left.Project(m), seeing.right.Project(seeing.cam2_from_cam1 * m)));
+  const SupportPlaneFit fit = FitSupportPlaneTls(seen);
+  return fit.normal.dot(triangulate(left_raw, right_raw) - fit.point);
+}
 
 double RigHeightSd(const StereoRig& rig, const SupportPlane& plane, const Eigen::Vector2d& left_raw,
                    const Eigen::Vector2d& right_raw) {
@@ -42,7 +43,7 @@ double RigHeightSd(const StereoRig& rig, const SupportPlane& plane, const Eigen:
   if (n < 2 || plane.markers.size() < 3) return 0.0;
   std::vector<double> heights;
   for (const RigReplicate& replicate : rig.replicates) {
-    const double h = HeightUnder(rig, replicate, plane, left_raw, right_raw);
+    const double h = HeightAboveOwnPlane(RigOf(replicate), rig, plane.markers, left_raw, right_raw);
     if (std::isfinite(h)) heights.push_back(h);
   }
   return std::sqrt(JackknifeVariance(heights));

@@ -97,6 +97,14 @@ PartUncertainty EstimatePartUncertainty(const StereoRig& rig, const SupportPlane
                                         const std::vector<RimHeightPoint>& points, const std::vector<SeenPoint>& seen,
                                         const UncertaintyOptions& options = {});
 
+// The height of the point seen at (left_raw, right_raw) as a station calibrated with
+// `measuring` would measure it: triangulated with `measuring`, above the plane (TLS, as
+// CalibratePlane fits it) that `measuring` triangulates from `markers` as the rig
+// `seeing` images them (`markers` in `seeing`'s camera-1 frame). u_rig takes it for each
+// jackknife replicate (seeing: the calibrated rig); evaluate's calibration share for the
+// calibrated rig (seeing: the true rig).
+double HeightAboveOwnPlane(const StereoRig& measuring, const StereoRig& seeing, const std::vector<Eigen::Vector3d>& markers,
+                           const Eigen::Vector2d& left_raw, const Eigen::Vector2d& right_raw);
 // u_rig alone: the jackknife standard deviation of the height of the point seen at
 // (left_raw, right_raw) above the plane; 0 without replicates.
 double RigHeightSd(const StereoRig& rig, const SupportPlane& plane, const Eigen::Vector2d& left_raw,
