@@ -66,11 +66,11 @@ struct SeenPoint {
 
 struct UncertaintyOptions {
   // e: the boundary's systematic disparity error, px. The twin with its true rig and
-  // plane (so that only the method's own errors remain; `flatscan evaluate --batch 60
-  // --seed 3 --true-calibration`) needs 0.007 px on the 12 mm-lens rig and 0.002 px on
-  // the paper rig for 95% of its parts to lie within U; the per-point pixel-phase error
-  // is 0.014 px RMS at a blur of 0.7-0.8 px (the twin's sampled blur: docs/simulator.md),
-  // and the fit averages it.
+  // plane (so that only the method's own errors remain; `flatscan evaluate --batch 200
+  // --seed 5 --true-calibration`, U without the plane's term) needs 0.0047 px on the
+  // paper rig (57 px per mm of the part), 0.0055 px with its lens at 16 mm (36 px/mm) and
+  // 0.0064 px on the 12 mm-lens rig (23 px/mm) for 95% of its parts to lie within U: one
+  // number in pixels, not one that falls with the pixels per mm (docs/evaluation.md).
   double method_disparity_px = 0.005;
   // e_m: the ring-centre disparity noise of one plane marker, px, and the degrees of
   // freedom nu0 its estimate counts for against the markers' residuals (u_plane
