@@ -143,8 +143,11 @@ SimulatedPart PlaceSimulatedPart(const Station& st, int id, PartGeometry geometr
   // Burrs from a seed peeked from `rng` without advancing it: the placement below makes
   // the same random draws with and without them (the same placement unless a burr
   // changes whether a candidate position keeps the part in view).
+  // The waviness likewise, from its own seed.
   Random peek = rng;
-  part.geometry = WithBurrs(std::move(geometry), spec, Random::DeriveSeed(peek.NextU64(), 0xB0AAull));
+  const uint64_t part_seed = peek.NextU64();
+  part.geometry = WithWaviness(WithBurrs(std::move(geometry), spec, Random::DeriveSeed(part_seed, 0xB0AAull)), spec,
+                               Random::DeriveSeed(part_seed, 0x3A7Eull));
   const PartGeometry& g = part.geometry;
   // Nominal placement: random rotation, random position where the whole part is seen
   // by both cameras.

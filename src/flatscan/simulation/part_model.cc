@@ -39,6 +39,16 @@ double SegmentMinimum(const F& f, double a, double b) {
 
 }  // namespace
 
+namespace {
+
+// The waviness's wave vector k (rad per mm) and phase k . p + phase at p.
+Eigen::Vector2d WaveVector(const Warp& w) {
+  return 2 * M_PI / w.wave_length_mm * Eigen::Vector2d(std::cos(w.wave_direction_rad), std::sin(w.wave_direction_rad));
+}
+double WavePhase(const Warp& w, const Eigen::Vector2d& p) { return WaveVector(w).dot(p) + w.wave_phase_rad; }
+
+}  // namespace
+
 double PartGeometry::OuterSdf(const Eigen::Vector2d& p) const {
   double d = RoundedRectSdf(p, half_width, half_height, corner_radius);
   for (const Notch& n : notches) d = std::max(d, -BoxSdf(p, n.center, n.half_size));
@@ -56,8 +66,10 @@ double PartGeometry::FootprintSdf(const Eigen::Vector2d& p) const {
 double PartGeometry::WarpZ(const Eigen::Vector2d& p) const {
   const double X = p.x() / half_width, Y = p.y() / half_height;
   const Warp& c = warp;
-  return c.bend_x * X * X + c.bend_y * Y * Y + c.twist * X * Y + c.c30 * X * X * X +
-         c.c21 * X * X * Y + c.c12 * X * Y * Y + c.c03 * Y * Y * Y;
+  const double smooth = c.bend_x * X * X + c.bend_y * Y * Y + c.twist * X * Y + c.c30 * X * X * X +
+                        c.c21 * X * X * Y + c.c12 * X * Y * Y + c.c03 * Y * Y * Y;
+  if (c.wave_mm == 0) return smooth;
+  return smooth + c.wave_mm * std::sin(WavePhase(c, p));
 }
 
 Eigen::Vector2d PartGeometry::WarpGradient(const Eigen::Vector2d& p) const {
@@ -65,7 +77,9 @@ Eigen::Vector2d PartGeometry::WarpGradient(const Eigen::Vector2d& p) const {
   const Warp& c = warp;
   const double dX = 2 * c.bend_x * X + c.twist * Y + 3 * c.c30 * X * X + 2 * c.c21 * X * Y + c.c12 * Y * Y;
   const double dY = 2 * c.bend_y * Y + c.twist * X + c.c21 * X * X + 2 * c.c12 * X * Y + 3 * c.c03 * Y * Y;
-  return {dX / half_width, dY / half_height};
+  Eigen::Vector2d gradient(dX / half_width, dY / half_height);
+  if (c.wave_mm != 0) gradient += c.wave_mm * std::cos(WavePhase(c, p)) * WaveVector(c);
+  return gradient;
 }
 
 Eigen::Vector3d PartGeometry::FaceDirection(const Eigen::Vector2d& q) const {
@@ -470,10 +484,22 @@ PartGeometry WithBurrs(PartGeometry g, const PartSpec& spec, uint64_t seed) {
   return g;
 }
 
+PartGeometry WithWaviness(PartGeometry g, const PartSpec& spec, uint64_t seed) {
+  if (spec.waviness_um.hi <= 0) return g;
+  Random rng(seed);
+  g.warp.wave_mm = 1e-3 * rng.Uniform(spec.waviness_um.lo, spec.waviness_um.hi);
+  g.warp.wave_length_mm = rng.Uniform(spec.waviness_wavelength_mm.lo, spec.waviness_wavelength_mm.hi);
+  g.warp.wave_direction_rad = rng.Uniform(0, M_PI);
+  g.warp.wave_phase_rad = rng.Uniform(0, 2 * M_PI);
+  return g;
+}
+
 namespace {
 
-Warp ScaledWarp(const Warp& w, double s) {
-  return {s * w.bend_x, s * w.bend_y, s * w.twist, s * w.c30, s * w.c21, s * w.c12, s * w.c03};
+// The smooth warp scaled; the waviness kept as drawn.
+Warp ScaledWarp(Warp w, double s) {
+  for (double* c : {&w.bend_x, &w.bend_y, &w.twist, &w.c30, &w.c21, &w.c12, &w.c03}) *c *= s;
+  return w;
 }
 
 }  // namespace
@@ -518,6 +544,11 @@ nlohmann::json PartGeometryToJson(const PartGeometry& g) {
   j["warp_mm"] = {{"bend_x", g.warp.bend_x}, {"bend_y", g.warp.bend_y}, {"twist", g.warp.twist},
                   {"c30", g.warp.c30},       {"c21", g.warp.c21},       {"c12", g.warp.c12},
                   {"c03", g.warp.c03}};
+  if (g.warp.wave_mm != 0)  // only when the scene asks for waviness, as with burrs
+    j["warp_mm"]["waviness"] = {{"amplitude_mm", g.warp.wave_mm},
+                                {"wavelength_mm", g.warp.wave_length_mm},
+                                {"direction_rad", g.warp.wave_direction_rad},
+                                {"phase_rad", g.warp.wave_phase_rad}};
   return j;
 }
 

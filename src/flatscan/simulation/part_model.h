@@ -14,7 +14,9 @@
 // the part rests on the walls' bottom edges. The warp, with X = x / a and Y = y / b
 // (a, b the half sizes), is
 //   w = bend_x X^2 + bend_y Y^2 + twist X Y + c30 X^3 + c21 X^2 Y + c12 X Y^2 + c03 Y^3,
-// each coefficient in mm (constant and linear terms are rigid motions and omitted).
+// each coefficient in mm (constant and linear terms are rigid motions and omitted),
+// plus an optional waviness, a plane wave across the sheet (a rolled strip's):
+//   wave_mm sin(2 pi (x cos(a) + y sin(a)) / wave_length_mm + phase).
 //
 // The bottom rim is the outer outline's bottom edge: the curve the part stands on,
 // and the set over which flatness is defined (docs/conventions.md).
@@ -56,6 +58,9 @@ struct Burr {
 struct Warp {
   double bend_x = 0, bend_y = 0, twist = 0;
   double c30 = 0, c21 = 0, c12 = 0, c03 = 0;
+  // Waviness (see the top of this file): amplitude (0: none), wavelength, direction a
+  // of the wave's travel in the part frame, and phase.
+  double wave_mm = 0, wave_length_mm = 2.0, wave_direction_rad = 0, wave_phase_rad = 0;
 };
 
 struct PartGeometry {
@@ -108,6 +113,11 @@ PartGeometry SamplePartGeometry(const PartSpec& spec, Random& rng);
 // `geometry` with burrs drawn from spec.burrs at random outline points (none when
 // spec.burrs is [0, 0]). Deterministic for `seed`; the part's shape is otherwise unchanged.
 PartGeometry WithBurrs(PartGeometry geometry, const PartSpec& spec, uint64_t seed);
+
+// `geometry` with a waviness drawn from spec.waviness_um and spec.waviness_wavelength_mm
+// (a uniform direction and phase; none when spec.waviness_um.hi is 0). Deterministic
+// for `seed`, which is all it draws from: the same parts with and without it.
+PartGeometry WithWaviness(PartGeometry geometry, const PartSpec& spec, uint64_t seed);
 
 // A part placed on the support: support_from_part includes the rest pose.
 class PartOccluder : public Occluder {

@@ -181,6 +181,38 @@ TEST(PartModel, WithBurrsDrawsThemOnTheOutlineWithinTheirRange) {
   EXPECT_TRUE(WithBurrs(plain, PartSpec{}, 9).burrs.empty());  // the default: none
 }
 
+// A flat sheet with a plane wave of amplitude A rests on its troughs; its rim crosses
+// several wavelengths, so the rim's crests stand 2 A above the support.
+TEST(PartModel, WavinessIsAPlaneWaveAcrossTheSheet) {
+  PartSpec spec;
+  spec.waviness_um = {5, 5};
+  spec.waviness_wavelength_mm = {2, 2};
+  const PartGeometry plain = SharpRectangle();
+  const PartGeometry wavy = WithWaviness(plain, spec, 4);
+  EXPECT_DOUBLE_EQ(wavy.warp.wave_mm, 0.005);
+  EXPECT_DOUBLE_EQ(wavy.warp.wave_length_mm, 2.0);
+  const Warp& w = wavy.warp;
+  const Eigen::Vector2d k = 2 * M_PI / 2.0 * Eigen::Vector2d(std::cos(w.wave_direction_rad), std::sin(w.wave_direction_rad));
+  for (const Eigen::Vector2d& p : {Eigen::Vector2d(0.3, -1.1), Eigen::Vector2d(5.0, 4.2)}) {
+    EXPECT_NEAR(wavy.WarpZ(p), 0.005 * std::sin(k.dot(p) + w.wave_phase_rad), 1e-15);
+    const double h = 1e-5;
+    const Eigen::Vector2d numeric((wavy.WarpZ(p + Eigen::Vector2d(h, 0)) - wavy.WarpZ(p - Eigen::Vector2d(h, 0))) / (2 * h),
+                                  (wavy.WarpZ(p + Eigen::Vector2d(0, h)) - wavy.WarpZ(p - Eigen::Vector2d(0, h))) / (2 * h));
+    EXPECT_NEAR((wavy.WarpGradient(p) - numeric).norm(), 0.0, 1e-9);
+  }
+  EXPECT_NEAR(RestAndPlacePart(wavy, 20.0, Eigen::Vector2d::Zero()).flatness_mm, 0.010, 2e-4);
+  // Drawn from its own seed only, and none by default; the smooth warp is untouched.
+  EXPECT_EQ(WithWaviness(plain, spec, 4).warp.wave_phase_rad, w.wave_phase_rad);
+  EXPECT_NE(WithWaviness(plain, spec, 5).warp.wave_phase_rad, w.wave_phase_rad);
+  EXPECT_EQ(WithWaviness(plain, PartSpec{}, 4).warp.wave_mm, 0.0);
+  // WithFlatness scales the smooth warp and keeps the waviness as drawn.
+  PartGeometry bent = wavy;
+  bent.warp.bend_x = 0.05;
+  const PartGeometry scaled = WithFlatness(bent, 0.1);
+  EXPECT_EQ(scaled.warp.wave_mm, 0.005);
+  EXPECT_NEAR(RestAndPlacePart(scaled, 0.0, Eigen::Vector2d::Zero()).flatness_mm, 0.1, 1e-7);
+}
+
 TEST(PartModel, CenterOfMassOfSymmetricSheetIsAtMidThickness) {
   PartGeometry g = SharpRectangle();
   const Eigen::Vector3d com = g.CenterOfMass();

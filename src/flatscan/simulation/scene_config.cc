@@ -280,6 +280,8 @@ void BindScene(SceneConfig& s, Binder& b) {
     b.IntRange("burrs", p.burrs, 0, 100);
     b.RangeField("burr_size_um", p.burr_size_um, 1.0, 1000.0);
     b.Number("burr_under_rim_fraction", p.burr_under_rim_fraction, 0.0, 1.0);
+    b.RangeField("waviness_um", p.waviness_um, 0.0, 100.0);
+    b.RangeField("waviness_wavelength_mm", p.waviness_wavelength_mm, 0.2, 100.0);
     b.RangeField("rotation_deg", p.rotation_deg, -360.0, 360.0);
     b.Number("jitter_mm", p.jitter_mm, 0.0, 10.0);
     b.Number("jitter_deg", p.jitter_deg, 0.0, 10.0);

@@ -152,6 +152,10 @@ struct PartSpec {
   std::array<int, 2> burrs = {0, 0};
   Range burr_size_um = {20.0, 50.0};
   double burr_under_rim_fraction = 0.5;
+  // Waviness of the sheet (a plane wave across it, simulation/part_model.h): its
+  // amplitude (0: none) and wavelength, added to the warp (not scaled by flatness_mm).
+  Range waviness_um = {0.0, 0.0};
+  Range waviness_wavelength_mm = {1.5, 4.0};
   Range rotation_deg = {0.0, 360.0};
   double jitter_mm = 0.1;             // placement jitter between repeated shots
   double jitter_deg = 0.2;

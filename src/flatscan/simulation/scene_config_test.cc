@@ -51,6 +51,7 @@ TEST(SceneConfig, YamlFileOverridesFieldsOfItsPreset) {
             "part:\n"
             "  thickness_mm: [0.1, 0.2]\n"
             "  holes: 1\n"
+            "  waviness_um: [2, 8]\n"
             "dataset:\n"
             "  markers_in_part_images: true\n");
   const SceneConfig s = LoadSceneFile(path);
@@ -64,6 +65,8 @@ TEST(SceneConfig, YamlFileOverridesFieldsOfItsPreset) {
   EXPECT_DOUBLE_EQ(s.part.thickness_mm.hi, 0.2);
   EXPECT_EQ(s.part.holes[0], 1);
   EXPECT_EQ(s.part.holes[1], 1);
+  EXPECT_DOUBLE_EQ(s.part.waviness_um.hi, 8.0);
+  EXPECT_DOUBLE_EQ(s.part.waviness_wavelength_mm.lo, 1.5);  // the default
   EXPECT_TRUE(s.dataset.markers_in_part_images);
 }
 
@@ -78,6 +81,9 @@ TEST(SceneConfig, BadValuesNameTheFileAndField) {
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(yml); }), y + ": optics.blur_sigma_px has no value (expected a number in [0, 10])");
   WriteText(json, R"({"part": {"thickness_mm": [0.3, 0.1]}})");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }), j + ": part.thickness_mm must have lo <= hi, got [0.3,0.1]");
+  WriteText(json, R"({"part": {"waviness_wavelength_mm": 0.1}})");
+  EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }),
+            j + ": part.waviness_wavelength_mm must be >= 0.2, got 0.1");
   WriteText(json, R"({"optic": {"blur_sigma_px": 1}})");
   EXPECT_EQ(InputErrorOf([&] { LoadSceneFile(json); }).rfind(j + ": unknown field 'optic'", 0), 0u);
   WriteText(json, R"({"camera": {"width": "big"}})");
