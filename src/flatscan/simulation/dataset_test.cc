@@ -95,5 +95,25 @@ TEST(Dataset, TheBlurOnSubpixelsRefusesTheVaryingDefocusBlur) {
   }
 }
 
+// The waviness is drawn from its own seed: the same parts, in the same places, with
+// and without it; only the wave and the truth that follows it differ.
+TEST(Dataset, WavinessLeavesThePartsAndTheirPlacementsAsTheyWere) {
+  const Station smooth = BuildStation(ScenePreset("paper"));
+  Station wavy = smooth;
+  wavy.scene.part.waviness_um = {5, 5};
+  Random a(3), b(3);
+  for (int i = 0; i < 3; ++i) {
+    const SimulatedPart p = SampleSimulatedPart(smooth, i, a), q = SampleSimulatedPart(wavy, i, b);
+    EXPECT_EQ(p.geometry.warp.wave_mm, 0.0);
+    EXPECT_EQ(q.geometry.warp.wave_mm, 0.005);
+    EXPECT_EQ(p.geometry.warp.bend_x, q.geometry.warp.bend_x);
+    EXPECT_EQ(p.geometry.half_width, q.geometry.half_width);
+    ASSERT_EQ(p.shots.size(), q.shots.size());
+    EXPECT_EQ(p.shots[0].rotation_deg, q.shots[0].rotation_deg);
+    EXPECT_EQ(p.shots[0].position, q.shots[0].position);
+    EXPECT_NE(p.shots[0].truth.flatness_mm, q.shots[0].truth.flatness_mm);
+  }
+}
+
 }  // namespace
 }  // namespace flatscan
