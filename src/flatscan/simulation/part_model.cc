@@ -37,10 +37,6 @@ double SegmentMinimum(const F& f, double a, double b) {
   return best;
 }
 
-}  // namespace
-
-namespace {
-
 // The waviness's wave vector k (rad per mm) and phase k . p + phase at p.
 Eigen::Vector2d WaveVector(const Warp& w) {
   return 2 * M_PI / w.wave_length_mm * Eigen::Vector2d(std::cos(w.wave_direction_rad), std::sin(w.wave_direction_rad));
