@@ -340,14 +340,14 @@ PartOccluder::PartOccluder(const PartGeometry& geometry, const Rigid3d& support_
   // The largest horizontal part of S over the footprint (a 41 x 41 grid; the cubic's
   // slope is smooth), times the faces' reach either side of the bottom surface, with a
   // margin for what the grid misses. A wave's slope is not smooth on that grid (its
-  // wavelength may be a few grid steps): its largest, 2 pi A / L, is added whole.
+  // wavelength may be a few grid steps): its largest, A |k| = 2 pi A / L, is added whole.
   double lean = 0;
   for (int i = 0; i <= 40; ++i)
     for (int j = 0; j <= 40; ++j) {
       const Eigen::Vector2d q(geometry.half_width * (i / 20.0 - 1), geometry.half_height * (j / 20.0 - 1));
       lean = std::max(lean, geometry.FaceDirection(q).head<2>().norm());
     }
-  lean += std::abs(geometry.warp.wave_mm) * 2 * M_PI / geometry.warp.wave_length_mm;
+  lean += std::abs(geometry.warp.wave_mm) * WaveVector(geometry.warp).norm();
   lean_ = 1.2 * lean * std::max(geometry.thickness, geometry.wall_height) + 1e-6;
 }
 
